@@ -1,0 +1,37 @@
+# Two entry points for a fresh machine: `make run` and `make test` (each creates .venv if missing).
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: run test lint bench scene video clean
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(PY) -m kr210_sim run --cycles 10
+
+test: $(STAMP)
+	$(PY) -m pytest -q -n 2
+
+lint: $(STAMP)
+	$(PY) -m ruff check kr210_sim tests benchmarks
+	$(PY) -m ruff format --check kr210_sim tests benchmarks
+	$(PY) -m mypy
+
+bench: $(STAMP)
+	for f in benchmarks/*.py; do echo "== $$f"; $(PY) $$f || exit 1; done
+
+scene: $(STAMP)
+	$(PY) -m kr210_sim build-meshes
+	$(PY) -m kr210_sim build-scene
+
+video: $(STAMP)
+	$(PY) -m kr210_sim run --cycles 10 --video videos/run.mp4
+
+clean:
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache *.egg-info

@@ -1,0 +1,31 @@
+"""The package's exception hierarchy.
+
+Every error the library raises on purpose derives from :class:`Kr210SimError`, so the CLI can turn
+it into a one-line message and an exit code. Messages say what went wrong and what to do.
+"""
+
+from __future__ import annotations
+
+
+class Kr210SimError(Exception):
+    """Base class of every error raised on purpose by kr210_sim."""
+
+
+class ConfigError(Kr210SimError, ValueError):
+    """A configuration value or a command-line argument is invalid (a usage error)."""
+
+
+class UnreachablePoseError(Kr210SimError, ValueError):
+    """No inverse-kinematics solution exists inside the joint limits for a requested pose."""
+
+
+class SceneError(Kr210SimError):
+    """The URDF or MJCF scene is missing, malformed or inconsistent."""
+
+
+class RenderError(Kr210SimError):
+    """Offscreen rendering or video encoding is unavailable or failed."""
+
+
+class PlanningError(Kr210SimError):
+    """A trajectory could not be planned (limits violated, ruckig failed, ...)."""
