@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(PY) -m kr210_sim run --cycles 10
+	$(PY) -m kr210_sim run --cycles 10 $(ARGS)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2

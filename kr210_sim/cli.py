@@ -1,12 +1,22 @@
-"""Command-line interface: ``python -m kr210_sim <command>``."""
+"""Command-line interface: ``python -m kr210_sim <command>``.
+
+Commands: ``run`` (the main job), ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes:
+0 success, 1 a run below its pass bar, 2 a usage error or a failure with a one-line message,
+130 interrupted (the report of the cycles completed so far is still written).
+"""
 
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
+import time
+from pathlib import Path
 
 from kr210_sim import __version__
-from kr210_sim.errors import ConfigError, Kr210SimError
+from kr210_sim.errors import Kr210SimError
+
+DEFAULT_REPORT = Path("reports/run.json")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -17,24 +27,158 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _slot(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 0-9, got {text!r}") from None
+    if not 0 <= value <= 9:
+        raise argparse.ArgumentTypeError(f"must be 0 (random) or 1-9, got {value}")
+    return value
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from kr210_sim.report import build_report, check_writable, cycle_line, summary_table
+    from kr210_sim.report import write_json_atomic
+    from kr210_sim.runner import Runner, RunConfig
+
+    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot,
+                       randomize=args.randomize)
+    report_path = check_writable(args.report)
+    runner = Runner(config)
+    wall0 = time.perf_counter()
+    interrupted = False
+    out = sys.stdout
+    try:
+        for i in range(1, config.cycles + 1):
+            slot = runner.slot_for_cycle()
+            result = runner.run_cycle(i, slot)
+            out.write(cycle_line(result, config.cycles) + "\n")
+            out.flush()
+    except KeyboardInterrupt:
+        interrupted = True
+        sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")
+    wall = time.perf_counter() - wall0
+    report = build_report(config, runner.results, wall, interrupted=interrupted)
+    write_json_atomic(report_path, report)
+    summary = report["summary"]
+    out.write(summary_table(summary) + "\n")
+    out.write(f"  report: {report_path}\n")
+    if interrupted:
+        return 130
+    passed = summary["success_rate"] >= args.min_success
+    out.write(f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+              f"cycles succeeded (pass bar {args.min_success:.0%})\n")
+    return 0 if passed else 1
+
+
+def _cmd_build_scene(args: argparse.Namespace) -> int:
+    from kr210_sim.scene import build_scene
+
+    for path in build_scene(args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+def _cmd_build_meshes(args: argparse.Namespace) -> int:
+    from kr210_sim.meshes import build_meshes
+
+    paths = build_meshes(args.out) if args.out else build_meshes()
+    print(f"wrote {len(paths)} meshes to {paths[0].parent if paths else args.out}")
+    return 0
+
+
+def _cmd_snapshot(args: argparse.Namespace) -> int:
+    from kr210_sim.render import snapshot
+
+    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height)
+    print(f"wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's argument parser."""
-    parser = _Parser(prog="kr210_sim", description=__doc__)
+    parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
     parser.add_argument("--version", action="version", version=f"kr210_sim {__version__}")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log what the cell does")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
     sub.required = True
+
+    run = sub.add_parser("run", help="run and score pick-and-place cycles")
+    run.add_argument("--cycles", type=_positive_int, default=10, help="cycles to run (10)")
+    run.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
+    run.add_argument("--slot", type=_slot, default=0,
+                     help="slot 1-9 (bottom row first), 0 = random per cycle (0)")
+    run.add_argument("--randomize", action="store_true",
+                     help="randomise target pose, size, mass and friction per cycle")
+    run.add_argument("--report", type=Path, default=DEFAULT_REPORT,
+                     help=f"JSON report path ({DEFAULT_REPORT})")
+    run.add_argument("--min-success", type=_fraction, default=0.8,
+                     help="pass bar: exit 1 below this success rate (0.8)")
+    run.set_defaults(func=_cmd_run)
+
+    scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
+    scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")
+    scene.set_defaults(func=_cmd_build_scene)
+
+    meshes = sub.add_parser("build-meshes", help="regenerate the KR210 meshes")
+    meshes.add_argument("--out", type=Path, default=None, help="output folder")
+    meshes.set_defaults(func=_cmd_build_meshes)
+
+    snap = sub.add_parser("snapshot", help="render a still of the cell offscreen")
+    snap.add_argument("--camera", default="overview", help="camera name (overview)")
+    snap.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
+    snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
+    snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
+    snap.set_defaults(func=_cmd_snapshot)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI and return its exit code (0 ok, 1 below the pass bar, 2 usage error)."""
+    """Run the CLI and return its exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    if getattr(args, "out", "") is None and args.command == "build-scene":
+        from kr210_sim.paths import SCENES_DIR
+
+        args.out = SCENES_DIR
     try:
         return int(args.func(args))
-    except ConfigError as exc:
-        sys.stderr.write(f"kr210_sim: error: {exc}\n")
-        return 2
     except Kr210SimError as exc:
         sys.stderr.write(f"kr210_sim: error: {exc}\n")
         return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("kr210_sim: interrupted\n")
+        return 130

@@ -74,6 +74,9 @@ class RobotDescription:
         finger_upper: Upper finger joint limit in [m] (fully closed).
         finger_speed: Finger velocity limit in [m/s].
         finger_gap_at_zero: Distance between the inner finger faces at zero finger position [m].
+        finger_center_x: x of the finger pads' centre in the gripper_link frame [m].
+        lip_x: x of the fingertip lips' inner (palm-side) faces in the gripper_link frame [m].
+        lip_depth: How far each lip stands out of its finger's inner face [m].
     """
 
     urdf_path: Path
@@ -85,6 +88,9 @@ class RobotDescription:
     finger_upper: float
     finger_speed: float
     finger_gap_at_zero: float
+    finger_center_x: float
+    lip_x: float
+    lip_depth: float
 
     def finger_gap(self, finger_q: float) -> float:
         """Distance between the inner finger faces in [m] at finger joint position ``finger_q`` [m]."""
@@ -95,14 +101,21 @@ class RobotDescription:
         return (self.finger_gap_at_zero - gap) / 2.0
 
 
-def _finger_half_width(urdf: object, link_name: str) -> float:
-    """Half the finger's collision-box width along y in [m]."""
+def _finger_boxes(urdf: object, link_name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(origin xyz, box size) of the finger's collision boxes in [m]: the pad, then the lip."""
     link = urdf.link_map[link_name]  # type: ignore[attr-defined]
+    boxes = []
     for collision in link.collisions:
         box = collision.geometry.box
         if box is not None:
-            return float(box.size[1]) / 2.0
-    raise SceneError(f"{link_name} has no collision box in the URDF; the finger width is unknown")
+            origin = collision.origin if collision.origin is not None else np.eye(4)
+            boxes.append((np.asarray(origin)[:3, 3], np.asarray(box.size, dtype=np.float64)))
+    if len(boxes) != 2:
+        raise SceneError(
+            f"{link_name} needs two collision boxes in the URDF (pad, fingertip lip), "
+            f"found {len(boxes)}"
+        )
+    return boxes
 
 
 @lru_cache(maxsize=4)
@@ -148,8 +161,9 @@ def load_robot(urdf_path: Path | str = URDF_PATH) -> RobotDescription:
         raise SceneError(f"URDF {path} lacks joints {missing}; found {sorted(joints)}")
     arm = [joints[n] for n in ARM_JOINTS]
     right = joints[FINGER_JOINTS[0]]
-    half_width = _finger_half_width(urdf, right.child)
-    gap0 = 2.0 * (abs(float(right.origin[1, 3])) - half_width)
+    (pad_xyz, pad_size), (lip_xyz, lip_size) = _finger_boxes(urdf, right.child)
+    gap0 = 2.0 * (abs(float(right.origin[1, 3])) - float(pad_size[1]) / 2.0)
+    finger_x = float(right.origin[0, 3])
     return RobotDescription(
         urdf_path=path,
         joints=joints,
@@ -160,4 +174,7 @@ def load_robot(urdf_path: Path | str = URDF_PATH) -> RobotDescription:
         finger_upper=right.upper,
         finger_speed=right.velocity,
         finger_gap_at_zero=gap0,
+        finger_center_x=finger_x + float(pad_xyz[0]),
+        lip_x=finger_x + float(lip_xyz[0] - lip_size[0] / 2.0),
+        lip_depth=float(lip_size[1]),
     )

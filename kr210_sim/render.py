@@ -1,0 +1,115 @@
+"""Offscreen rendering: the GL backend check, renderers sized to the scene, and stills.
+
+Importing :mod:`kr210_sim` picks ``MUJOCO_GL=egl`` when no display is set; when no backend
+works, :func:`make_renderer` raises :class:`RenderError` naming ``MUJOCO_GL`` and what to install.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import ConfigError, RenderError
+
+import mujoco  # isort: skip
+
+GL_HELP = (
+    "no OpenGL backend for offscreen rendering (MUJOCO_GL={gl}): install Mesa's EGL "
+    "(Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri) and set MUJOCO_GL=egl, or "
+    "install OSMesa (apt-get install libosmesa6) and set MUJOCO_GL=osmesa"
+)
+
+
+def camera_names(model: mujoco.MjModel) -> list[str]:
+    """Names of the model's cameras."""
+    return [model.camera(i).name for i in range(model.ncam)]
+
+
+def check_camera(model: mujoco.MjModel, name: str) -> int:
+    """Id of camera ``name``.
+
+    Raises:
+        ConfigError: When there is no such camera (the message lists the names that exist).
+    """
+    cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+    if cid < 0:
+        raise ConfigError(f"no camera {name!r}; cameras: {', '.join(camera_names(model))}")
+    return int(cid)
+
+
+def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """An offscreen renderer for ``model`` at ``width`` x ``height`` [px].
+
+    Raises:
+        ConfigError: When the size is not positive or exceeds the scene's offscreen buffer.
+        RenderError: When no OpenGL backend can be started.
+    """
+    if width < 1 or height < 1:
+        raise ConfigError(f"frame size must be positive, got {width}x{height}")
+    ow, oh = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
+    if width > ow or height > oh:
+        raise ConfigError(
+            f"frame {width}x{height} exceeds the scene's offscreen buffer {ow}x{oh}; "
+            "use a smaller size or raise OFFSCREEN_SIZE in kr210_sim/scene.py and rebuild"
+        )
+    try:
+        return mujoco.Renderer(model, height=height, width=width)
+    except Exception as exc:
+        gl = os.environ.get("MUJOCO_GL", "unset")
+        raise RenderError(GL_HELP.format(gl=gl) + f" [{type(exc).__name__}: {exc}]") from exc
+
+
+def render_frame(renderer: mujoco.Renderer, data: mujoco.MjData, camera: int | str,
+                 shadows: bool = True) -> npt.NDArray[np.uint8]:
+    """Render one RGB frame (height, width, 3) of ``data`` from ``camera``."""
+    renderer.update_scene(data, camera=camera)
+    renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+    return renderer.render()
+
+
+def snapshot(out: Path | str, camera: str = "overview", width: int = 1280, height: int = 720,
+             model: mujoco.MjModel | None = None) -> Path:
+    """Render a still of the cell (arm at its ready pose, a target in every slot) to a PNG.
+
+    Args:
+        out: PNG path.
+        camera: Camera name.
+        width: Width [px].
+        height: Height [px].
+        model: The cell model (default: the committed scene).
+
+    Returns:
+        The path written.
+    """
+    import imageio.v3 as iio
+
+    from kr210_sim.config import CellConfig, MotionConfig
+    from kr210_sim.scene import CellHandles, load_model
+
+    from kr210_sim.report import check_writable
+
+    path = check_writable(out)
+    model = model if model is not None else load_model()
+    check_camera(model, camera)
+    cell = CellConfig()
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    h = CellHandles.from_model(model)
+    data.qpos[h.arm_qpos] = MotionConfig().ready_q
+    for k in range(min(9, len(h.target_qpos))):
+        a = int(h.target_qpos[k])
+        data.qpos[a : a + 3] = cell.slot(k + 1)
+        data.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
+    mujoco.mj_forward(model, data)
+    renderer = make_renderer(model, width, height)
+    try:
+        frame = render_frame(renderer, data, camera)
+    finally:
+        renderer.close()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    iio.imwrite(tmp, frame)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,185 @@
+"""Run reports: the JSON record, the per-cycle line and the summary table.
+
+Reports are written atomically (a temporary file in the same folder, then ``os.replace``), so an
+interrupted write never leaves a half-written report behind. Fields that depend on the machine
+(wall times, real-time factor) are collected under keys named ``wall_*`` / ``*_wall`` so that
+determinism checks can drop them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import tempfile
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from kr210_sim import __version__
+from kr210_sim.errors import ConfigError
+from kr210_sim.runner import CycleResult, RunConfig
+
+#: Keys whose values depend on the machine, not on the simulation.
+WALL_KEYS = frozenset({"wall_time", "wall_time_s", "real_time_factor", "steps_per_second"})
+
+
+def versions() -> dict[str, str]:
+    """Versions of the package, Python and the libraries that shape the results."""
+    import mujoco
+    import ruckig  # type: ignore[import-not-found]
+
+    out = {
+        "kr210_sim": __version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "mujoco": mujoco.__version__,
+    }
+    out["ruckig"] = getattr(ruckig, "__version__", "unknown")
+    return out
+
+
+def summarise(results: Sequence[CycleResult], wall_time: float | None = None) -> dict[str, Any]:
+    """Summary figures of a run.
+
+    Args:
+        results: The cycles run so far.
+        wall_time: Wall-clock time of the run [s], if known.
+
+    Returns:
+        cycles, successes, success_rate, failures (reason -> count), cycle-time statistics [s],
+        worst tracking error [deg], worst gripper error [mm], worst creep [mm], robot contacts,
+        simulated time [s], and the wall-time figures.
+    """
+    n = len(results)
+    ok = [r for r in results if r.success]
+    times = np.array([r.cycle_time for r in results]) if n else np.zeros(0)
+    grasped = [r.creep_mm for r in results if r.reason not in ("unreachable", "grasp_missed")]
+    summary: dict[str, Any] = {
+        "cycles": n,
+        "successes": len(ok),
+        "success_rate": (len(ok) / n) if n else 0.0,
+        "failures": dict(sorted(Counter(r.reason for r in results if r.reason).items())),
+        "cycle_time_mean": float(times.mean()) if n else 0.0,
+        "cycle_time_max": float(times.max()) if n else 0.0,
+        "cycle_time_min": float(times.min()) if n else 0.0,
+        "max_tracking_error_deg": max((max(r.max_tracking_error_deg) for r in results),
+                                      default=0.0),
+        "max_gripper_error_mm": max((r.max_gripper_error_mm for r in results), default=0.0),
+        "max_creep_mm": max(grasped, default=0.0),
+        "env_contact_ticks": sum(r.env_contact_ticks for r in results),
+        "grasp_retries": sum(max(r.grasp_attempts - 1, 0) for r in results),
+        "sim_time": float(times.sum()) if n else 0.0,
+    }
+    if wall_time is not None:
+        summary["wall_time_s"] = wall_time
+        summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
+    return summary
+
+
+def _jsonable(obj: Any) -> Any:
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return _jsonable(asdict(obj))
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def build_report(config: RunConfig, results: Sequence[CycleResult], wall_time: float | None,
+                 interrupted: bool = False) -> dict[str, Any]:
+    """The JSON-ready report of a run: config, per-cycle records, summary, versions."""
+    return {
+        "kind": "kr210_sim.run",
+        "config": _jsonable(config),
+        "cycles": [_jsonable(r.to_dict()) for r in results],
+        "summary": summarise(results, wall_time),
+        "interrupted": interrupted,
+        "versions": versions(),
+    }
+
+
+def check_writable(path: Path | str) -> Path:
+    """Fail early, with a one-line message, when ``path`` cannot be written.
+
+    Raises:
+        ConfigError: When the folder is missing or not writable, or ``path`` is a folder.
+    """
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    if p.is_dir():
+        raise ConfigError(f"{p} is a folder; give a file path")
+    if not parent.exists():
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(f"cannot create the folder {parent}: {exc.strerror}") from exc
+    if not os.access(parent, os.W_OK):
+        raise ConfigError(f"cannot write to {parent}: permission denied")
+    return p
+
+
+def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
+    """Write ``payload`` as JSON to ``path`` atomically (sorted keys, 2-space indent)."""
+    p = check_writable(path)
+    text = json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return p
+
+
+def strip_wall(obj: Any) -> Any:
+    """A copy of a report with every machine-dependent (wall-time) field removed."""
+    if isinstance(obj, dict):
+        return {k: strip_wall(v) for k, v in obj.items() if k not in WALL_KEYS}
+    if isinstance(obj, list):
+        return [strip_wall(v) for v in obj]
+    return obj
+
+
+def cycle_line(r: CycleResult, total: int) -> str:
+    """One line per cycle: number, slot, result, cycle time, tracking error, creep."""
+    width = len(str(total))
+    result = "ok  " if r.success else f"FAIL {r.reason}"
+    retry = f"  retries {r.grasp_attempts - 1}" if r.grasp_attempts > 1 else ""
+    return (
+        f"[{r.index:>{width}}/{total}] slot {r.slot}  {result:<24} "
+        f"cycle {r.cycle_time:5.2f} s  track {max(r.max_tracking_error_deg):5.3f} deg  "
+        f"creep {r.creep_mm:5.2f} mm{retry}"
+        + (f"  ({r.detail})" if r.detail and not r.success else "")
+    )
+
+
+def summary_table(summary: dict[str, Any]) -> str:
+    """A small plain-text summary table."""
+    rows = [
+        ("cycles", f"{summary['cycles']}"),
+        ("successes", f"{summary['successes']} ({100 * summary['success_rate']:.0f} %)"),
+        ("failures", ", ".join(f"{k} {v}" for k, v in summary["failures"].items()) or "none"),
+        ("cycle time mean / max", f"{summary['cycle_time_mean']:.2f} / "
+                                  f"{summary['cycle_time_max']:.2f} s"),
+        ("worst joint tracking error", f"{summary['max_tracking_error_deg']:.3f} deg"),
+        ("worst gripper error vs plan", f"{summary['max_gripper_error_mm']:.2f} mm"),
+        ("worst creep in the grip", f"{summary['max_creep_mm']:.2f} mm"),
+        ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
+    ]
+    if "wall_time_s" in summary:
+        rows.append(("wall time", f"{summary['wall_time_s']:.2f} s "
+                                  f"({summary['real_time_factor']:.0f}x real time)"))
+    w = max(len(k) for k, _ in rows)
+    return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)

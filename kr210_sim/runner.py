@@ -1,0 +1,423 @@
+"""The runner: executes and scores pick-and-place cycles in the simulated cell.
+
+Data flow per cycle: spawn a fresh cylinder (config + seeded generator) -> observe its pose ->
+plan (:mod:`kr210_sim.task`) -> execute (:mod:`kr210_sim.control`) -> monitor -> score
+(:mod:`kr210_sim.scoring`) -> :class:`CycleResult`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim import kinematics
+from kr210_sim.config import CellConfig, MotionConfig, RandomizationSpec, TargetSpec
+from kr210_sim.control import Cell, Recording, hold
+from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
+from kr210_sim.robot import RobotDescription, load_robot
+from kr210_sim.scene import load_model
+from kr210_sim.scoring import REST_SPEED, CycleObservation, Outcome, in_bin, score
+from kr210_sim.task import Move, Planner
+
+import mujoco  # isort: skip
+
+log = logging.getLogger(__name__)
+FloatArray = npt.NDArray[np.float64]
+
+#: Time a freshly spawned target is left to settle before it is observed [s].
+SPAWN_SETTLE = 0.1
+#: Longest wait for a released target to come to rest in the bin [s].
+SETTLE_TIMEOUT = 2.0
+#: Finger speed below which a closing grip counts as settled [m/s].
+GRIP_SETTLED_SPEED = 0.005
+#: Largest mismatch between the finger gap and the target diameter for a confirmed grip [m].
+GRIP_GAP_TOLERANCE = 0.006
+#: Displacement of the target relative to the gripper that counts as lost [m].
+LOST_DISTANCE = 0.03
+
+
+@dataclass(frozen=True, slots=True)
+class RunConfig:
+    """Settings of a run.
+
+    Attributes:
+        cycles: Number of pick-and-place cycles.
+        seed: Seed of the run's random generator.
+        slot: Slot 1-9, or 0 for a random slot per cycle.
+        randomize: Randomise the target per cycle (see :class:`RandomizationSpec`).
+        grasp_attempts: Attempts at a grasp before the cycle is scored ``grasp_missed``.
+        cell: The cell layout.
+        motion: Motion settings.
+        randomization: Randomisation ranges.
+    """
+
+    cycles: int = 10
+    seed: int = 0
+    slot: int = 0
+    randomize: bool = False
+    grasp_attempts: int = 2
+    cell: CellConfig = field(default_factory=CellConfig)
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    randomization: RandomizationSpec = field(default_factory=RandomizationSpec)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.cycles, int) or self.cycles < 1:
+            raise ConfigError(f"cycles must be a whole number >= 1, got {self.cycles!r}")
+        if not isinstance(self.slot, int) or not 0 <= self.slot <= 9:
+            raise ConfigError(f"slot must be 0 (random) or 1-9, got {self.slot!r}")
+        if self.grasp_attempts < 1:
+            raise ConfigError(f"grasp_attempts must be >= 1, got {self.grasp_attempts!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class TargetSample:
+    """One cycle's target: where it spawns and what it is.
+
+    Attributes:
+        slot: Slot number 1-9.
+        position: Spawn position of the centre [m].
+        yaw: Spawn yaw [rad].
+        spec: Size, mass and friction.
+    """
+
+    slot: int
+    position: tuple[float, float, float]
+    yaw: float
+    spec: TargetSpec
+
+
+@dataclass(frozen=True, slots=True)
+class CycleResult:
+    """What one cycle did and how it scored.
+
+    Attributes:
+        index: Cycle number (1-based).
+        slot: Slot 1-9.
+        success: True when the target rests in the bin.
+        reason: Failure reason (an :class:`Outcome` value), None on success.
+        detail: One sentence on what went wrong (empty on success).
+        cycle_time: Simulated time from the first move to the end of the return move [s].
+        max_tracking_error_deg: Largest |q_des - q| per joint over the cycle [deg].
+        max_gripper_error_mm: Largest distance of gripper_link (forward kinematics of the measured
+            joints) from its planned position (of the commanded joints) [mm].
+        creep_mm: Largest displacement of the target relative to the gripper between the
+            confirmed grip and the release [mm].
+        grasp_attempts: Grasp attempts made.
+        env_contact_ticks: Control ticks with robot-shelf or robot-bin contact.
+        contact_pairs: Names of robot/environment geom pairs that touched.
+        target: The target's spawn sample.
+        target_final: The target's final centre [m].
+        phase_times: Simulated duration of each phase [s].
+        wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
+    """
+
+    index: int
+    slot: int
+    success: bool
+    reason: str | None
+    detail: str
+    cycle_time: float
+    max_tracking_error_deg: tuple[float, ...]
+    max_gripper_error_mm: float
+    creep_mm: float
+    grasp_attempts: int
+    env_contact_ticks: int
+    contact_pairs: tuple[tuple[str, str], ...]
+    target: TargetSample
+    target_final: tuple[float, float, float]
+    phase_times: dict[str, float]
+    wall_time: float
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready dictionary."""
+        d = asdict(self)
+        d["target"]["spec"] = asdict(self.target.spec)
+        return d
+
+
+def sample_target(rng: np.random.Generator, config: RunConfig, cycle_slot: int) -> TargetSample:
+    """Draw one cycle's target from the run's generator.
+
+    The nominal target sits upright on its board at the slot centre; with ``randomize`` its
+    position, yaw, size, mass and friction are drawn from :class:`RandomizationSpec`.
+    """
+    cell, r = config.cell, config.randomization
+    centre = cell.slot(cycle_slot)
+    row = (cycle_slot - 1) // 3
+    board_top = cell.shelf.board_tops[row]
+    spec = cell.target
+    yaw = 0.0
+    offset = np.zeros(2)
+    if config.randomize:
+        offset = rng.uniform(-r.xy_offset, r.xy_offset, size=2)
+        yaw = float(rng.uniform(*r.yaw))
+        spec = TargetSpec(
+            radius=float(rng.uniform(*r.radius)),
+            length=float(rng.uniform(*r.length)),
+            mass=float(rng.uniform(*r.mass)),
+            friction=float(rng.uniform(*r.friction)),
+        )
+    position = (
+        float(centre[0] + offset[0]),
+        float(centre[1] + offset[1]),
+        float(board_top + spec.length / 2.0),
+    )
+    return TargetSample(cycle_slot, position, yaw, spec)
+
+
+def _set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetSpec) -> None:
+    """Give target ``index`` the size, mass and friction of ``spec`` (model fields)."""
+    h = cell.handles
+    g, b = int(h.target_geoms[index]), int(h.target_bodies[index])
+    r, half = spec.radius, spec.length / 2.0
+    model.geom_size[g, :2] = (r, half)
+    model.geom_rbound[g] = math.hypot(r, half)
+    model.geom_aabb[g] = (0, 0, 0, r, r, half)
+    model.geom_friction[g, 0] = spec.friction
+    model.body_mass[b] = spec.mass
+    ixx = spec.mass * (3 * r * r + spec.length**2) / 12.0
+    model.body_inertia[b] = (ixx, ixx, spec.mass * r * r / 2.0)
+
+
+class Runner:
+    """Runs cycles in one simulated cell; the cell persists across cycles (the bin fills up).
+
+    Args:
+        config: Run settings.
+        model: A compiled cell model (default: the committed scene).
+        robot: The robot description (default: the committed URDF).
+    """
+
+    def __init__(self, config: RunConfig, model: mujoco.MjModel | None = None,
+                 robot: RobotDescription | None = None) -> None:
+        self.config = config
+        self.robot = robot or load_robot()
+        self.model = model if model is not None else load_model()
+        self.cell = Cell(self.model, config.cell)
+        self.planner = Planner(self.robot, config.motion)
+        self.planner.check_ready()
+        self.rng = np.random.default_rng(config.seed)
+        self.cell.reset(self.planner.ready_q)
+        self.q_cmd = self.planner.ready_q.copy()
+        self.results: list[CycleResult] = []
+        self.recordings: list[Recording] = []
+        self.status: dict[str, object] = {"cycle": 0, "cycles": config.cycles, "slot": 0,
+                                          "successes": 0, "phase": "idle"}
+        self._next_target = 0
+
+    # -- one cycle -----------------------------------------------------------------------
+    def _spawn(self, sample: TargetSample) -> int:
+        """Place a fresh target (or recycle the oldest) at the sample's pose; return its index."""
+        cell = self.cell
+        k = self._next_target % len(cell.handles.target_bodies)
+        self._next_target += 1
+        _set_target_spec(self.model, cell, k, sample.spec)
+        a, dof = int(cell.handles.target_qpos[k]), int(cell.handles.target_dof[k])
+        d = cell.data
+        d.qpos[a : a + 3] = sample.position
+        d.qpos[a + 3 : a + 7] = (math.cos(sample.yaw / 2), 0.0, 0.0, math.sin(sample.yaw / 2))
+        d.qvel[dof : dof + 6] = 0.0
+        cell.active_target = k
+        mujoco.mj_forward(self.model, d)
+        return k
+
+    def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
+        self.status["phase"] = move.phase
+        dt = self.cell.track(move.trajectory, rec, move.phase)
+        phases[move.phase] = phases.get(move.phase, 0.0) + dt
+        self.q_cmd = move.q_end
+
+    def _hold(self, seconds: float, rec: Recording, phase: str, phases: dict[str, float],
+              until: Callable[[Cell], bool] | None = None) -> float:
+        self.status["phase"] = phase
+        dt = self.cell.track(hold(self.q_cmd, seconds), rec, phase, until=until)
+        phases[phase] = phases.get(phase, 0.0) + dt
+        return dt
+
+    def _grip_confirmed(self, radius: float) -> bool:
+        cell = self.cell
+        right, left = cell.finger_target_contacts()
+        gap = self.robot.finger_gap(cell.finger_q)
+        return right and left and abs(gap - 2.0 * radius) < GRIP_GAP_TOLERANCE
+
+    def _close(self, radius: float, rec: Recording, phases: dict[str, float]) -> bool:
+        """Close the gripper until the grip is confirmed or the timeout passes."""
+        cell = self.cell
+        cell.close_gripper()
+        settled = 0
+
+        def done(c: Cell) -> bool:
+            nonlocal settled
+            settled = settled + 1 if abs(c.finger_qd) < GRIP_SETTLED_SPEED else 0
+            return settled >= 5 and self._grip_confirmed(radius)
+
+        self._hold(self.config.motion.close_timeout, rec, "grasp", phases, until=done)
+        return self._grip_confirmed(radius)
+
+    def run_cycle(self, index: int, slot: int) -> CycleResult:
+        """Run and score one cycle.
+
+        Args:
+            index: Cycle number (1-based).
+            slot: Slot 1-9.
+        """
+        wall0 = time.perf_counter()
+        cfg, cell = self.config, self.cell
+        sample = sample_target(self.rng, cfg, slot)
+        self.status.update(cycle=index, slot=slot, phase="spawn")
+        k = self._spawn(sample)
+        rec = Recording()
+        phases: dict[str, float] = {}
+        self._hold(SPAWN_SETTLE, rec, "spawn", phases)
+        t_start = cell.time
+        planned, confirmed, held, released = True, False, False, False
+        attempts = 0
+        detail = ""
+        grip_ref: FloatArray | None = None
+        i_grip = i_release = -1
+        try:
+            while attempts < cfg.grasp_attempts and not confirmed:
+                attempts += 1
+                position, _ = cell.target_pose(k)
+                plan = self.planner.plan_grasp(self.q_cmd, position, sample.spec.radius)
+                self._track(plan.approach_ptp, rec, phases)
+                self._track(plan.approach_lin, rec, phases)
+                confirmed = self._close(sample.spec.radius, rec, phases)
+                if not confirmed:
+                    detail = (f"grip not confirmed on attempt {attempts}: finger gap "
+                              f"{self.robot.finger_gap(cell.finger_q) * 1000:.1f} mm, target "
+                              f"diameter {2000 * sample.spec.radius:.1f} mm")
+                    log.info("cycle %d: %s", index, detail)
+                    cell.open_gripper()
+                    self._hold(0.3, rec, "grasp", phases)
+                    back = self.planner.lin("retreat", self.q_cmd,
+                                            kinematics.forward(plan.approach_ptp.q_end))
+                    self._track(back, rec, phases)
+                    continue
+                grip_ref = cell.target_in_gripper()
+                i_grip = len(rec.t)
+                self._track(plan.lift, rec, phases)
+                self._track(plan.retreat, rec, phases)
+            if confirmed:
+                carry = self.planner.plan_carry(self.q_cmd)
+                self._track(carry, rec, phases)
+                assert grip_ref is not None
+                held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
+                i_release = len(rec.t)
+                cell.open_gripper()
+                released = True
+                self._hold(cfg.motion.release_wait, rec, "release", phases)
+            self._track(self.planner.plan_return(self.q_cmd), rec, phases)
+        except (UnreachablePoseError, PlanningError) as exc:
+            planned = False  # scored "unreachable": no plan within the limits exists
+            detail = str(exc)
+            log.info("cycle %d: %s", index, detail)
+            if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
+                try:
+                    self._track(self.planner.plan_return(self.q_cmd), rec, phases)
+                except PlanningError as back_exc:  # pragma: no cover - defensive
+                    log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
+        cycle_time = cell.time - t_start
+        self.status["phase"] = "settle"
+        self._hold(SETTLE_TIMEOUT, rec, "settle", phases,
+                   until=lambda c: c.target_speed() < REST_SPEED)
+        obs = CycleObservation(
+            planned=planned,
+            grasp_confirmed=confirmed,
+            held_until_release=held,
+            released=released,
+            robot_env_contacts=int(np.sum(rec.env_contact)),
+            target_position=cell.target_pose(k)[0],
+            target_speed=cell.target_speed(k),
+        )
+        outcome = score(obs, cfg.cell.bin)
+        if outcome is Outcome.SUCCESS:
+            detail = ""
+        elif not detail:
+            detail = _describe(outcome, obs, rec, cfg.cell)
+        result = self._summarise(index, sample, outcome, detail, rec, cycle_time, attempts,
+                                 grip_ref, i_grip, i_release, phases, wall0, obs)
+        self.results.append(result)
+        self.recordings.append(rec)
+        if result.success:
+            self.status["successes"] = int(self.status["successes"]) + 1  # type: ignore[call-overload]
+        self._clear_shelf(k)
+        return result
+
+    def _clear_shelf(self, k: int) -> None:
+        """Park a target left on the shelf after a failed cycle, so the slot is free again."""
+        cell = self.cell
+        pos, _ = cell.target_pose(k)
+        s = self.config.cell.shelf
+        if pos[0] > s.x_front - 0.2 and pos[2] > s.board_tops[0] - 0.1:
+            a = int(cell.handles.target_qpos[k])
+            park = self.config.cell.park_position(k)
+            cell.data.qpos[a : a + 3] = park
+            cell.data.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
+            dof = int(cell.handles.target_dof[k])
+            cell.data.qvel[dof : dof + 6] = 0.0
+            mujoco.mj_forward(self.model, cell.data)
+            log.info("target %d left on the shelf was cleared to the park area", k)
+
+    def _summarise(self, index: int, sample: TargetSample, outcome: Outcome, detail: str,
+                   rec: Recording, cycle_time: float, attempts: int,
+                   grip_ref: FloatArray | None, i_grip: int, i_release: int,
+                   phases: dict[str, float], wall0: float, obs: CycleObservation) -> CycleResult:
+        arr = rec.arrays()
+        track_deg = np.degrees(np.abs(arr["q"] - arr["q_des"]).max(axis=0))
+        planned_pos = kinematics.forward(arr["q_des"])[:, :3, 3]
+        actual_pos = kinematics.forward(arr["q"])[:, :3, 3]
+        grip_err = np.linalg.norm(actual_pos - planned_pos, axis=1).max() * 1000.0
+        creep = 0.0
+        if grip_ref is not None and i_grip >= 0:
+            end = i_release if i_release > i_grip else len(arr["t"])
+            seg = arr["target_in_gripper"][i_grip:end]
+            if len(seg):
+                creep = float(np.linalg.norm(seg - grip_ref, axis=1).max() * 1000.0)
+        return CycleResult(
+            index=index,
+            slot=sample.slot,
+            success=outcome is Outcome.SUCCESS,
+            reason=None if outcome is Outcome.SUCCESS else outcome.value,
+            detail=detail,
+            cycle_time=round(float(cycle_time), 6),
+            max_tracking_error_deg=tuple(round(float(x), 6) for x in track_deg),
+            max_gripper_error_mm=round(float(grip_err), 6),
+            creep_mm=round(creep, 6),
+            grasp_attempts=attempts,
+            env_contact_ticks=obs.robot_env_contacts,
+            contact_pairs=tuple(sorted(rec.contact_pairs)),
+            target=sample,
+            target_final=tuple(round(float(x), 6) for x in obs.target_position),  # type: ignore[arg-type]
+            phase_times={k: round(v, 6) for k, v in phases.items()},
+            wall_time=time.perf_counter() - wall0,
+        )
+
+    def slot_for_cycle(self) -> int:
+        """The slot of the next cycle: fixed, or drawn from the run's generator."""
+        if self.config.slot:
+            return self.config.slot
+        return int(self.rng.integers(1, 10))
+
+
+def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellConfig) -> str:
+    """One sentence on why a cycle failed."""
+    p = np.round(obs.target_position, 3).tolist()
+    if outcome is Outcome.COLLISION:
+        pairs = ", ".join(f"{a}/{b}" for a, b in sorted(rec.contact_pairs)[:3])
+        return f"robot touched the cell for {obs.robot_env_contacts} ticks ({pairs})"
+    if outcome is Outcome.GRASP_MISSED:
+        return "the grip was never confirmed"
+    if outcome is Outcome.DROPPED_IN_TRANSIT:
+        return f"the target left the fingers before the release; it lies at {p}"
+    if outcome is Outcome.MISSED_BIN:
+        where = "inside" if in_bin(obs.target_position, cell.bin) else "outside"
+        return (f"the target ended {where} the bin at {p}, moving at "
+                f"{obs.target_speed:.3f} m/s")
+    return outcome.value

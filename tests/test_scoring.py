@@ -1,0 +1,60 @@
+"""Scoring on constructed situations: every failure reason and the success case."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kr210_sim.config import BinSpec
+from kr210_sim.scoring import REST_SPEED, CycleObservation, Outcome, in_bin, score
+
+BIN = BinSpec()
+IN_BIN = np.array([0.05, 2.5, 0.1])
+
+
+def obs(**kw: object) -> CycleObservation:
+    base: dict[str, object] = dict(planned=True, grasp_confirmed=True, held_until_release=True,
+                                   released=True, robot_env_contacts=0,
+                                   target_position=IN_BIN, target_speed=0.0)
+    base.update(kw)
+    return CycleObservation(**base)  # type: ignore[arg-type]
+
+
+def test_success() -> None:
+    assert score(obs(), BIN) is Outcome.SUCCESS
+
+
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        ({"planned": False, "grasp_confirmed": False}, Outcome.UNREACHABLE),
+        ({"robot_env_contacts": 3}, Outcome.COLLISION),
+        ({"grasp_confirmed": False, "target_position": np.array([2.6, 0, 0.914])},
+         Outcome.GRASP_MISSED),
+        ({"held_until_release": False, "target_position": np.array([1.0, 1.0, 0.05])},
+         Outcome.DROPPED_IN_TRANSIT),
+        ({"released": False}, Outcome.DROPPED_IN_TRANSIT),
+        ({"target_position": np.array([0.7, 2.5, 0.05])}, Outcome.MISSED_BIN),
+        ({"target_position": np.array([0.0, 2.5, 1.2])}, Outcome.MISSED_BIN),  # on the rim
+        ({"target_speed": REST_SPEED * 5}, Outcome.MISSED_BIN),  # still moving
+    ],
+)
+def test_failure_reasons(changes: dict[str, object], expected: Outcome) -> None:
+    assert score(obs(**changes), BIN) is expected
+
+
+def test_precedence_unreachable_over_everything() -> None:
+    o = obs(planned=False, robot_env_contacts=5, grasp_confirmed=False)
+    assert score(o, BIN) is Outcome.UNREACHABLE
+
+
+def test_in_bin_walls_and_rim() -> None:
+    half = BIN.inner_half
+    cx, cy = BIN.center_xy
+    assert in_bin([cx, cy, 0.2], BIN)
+    assert in_bin([cx + half - 1e-3, cy, 0.2], BIN)
+    assert not in_bin([cx + half + 1e-3, cy, 0.2], BIN)
+    assert not in_bin([cx, cy - half - 1e-3, 0.2], BIN)
+    assert not in_bin([cx, cy, BIN.height + 0.01], BIN)
+    assert not in_bin([cx, cy, BIN.floor_top - 0.01], BIN)
+    assert not in_bin([cx + half - 0.01, cy, 0.2], BIN, margin=0.02)
