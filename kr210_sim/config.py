@@ -165,10 +165,8 @@ class MotionConfig:
         jerk_scale: Joint jerk limit as a multiple of the acceleration limit, in [1/s].
         lin_speed: Cartesian speed of straight-line moves in [m/s].
         lin_step: Sample spacing of straight-line moves in [m].
-        standoff: Distance of the joint-space approach pose in front of the target along -x [m].
-        pregrasp: Distance of the pre-grasp pose in front of the grasp pose along -x [m].
-        grasp_depth: x of the target's axis in the gripper_link frame at the grasp [m]
-            (the finger centres are at 0.15).
+        standoff: Distance of the joint-space approach pose before the grasp pose, along the
+            approach direction [m] (the straight-line approach passes the published pre-grasp).
         grasp_dz: Height of the grasp point relative to the target's centre [m].
         lift: Height of the lift after closing [m].
         drop_position: gripper_link position above the bin at release [m].
@@ -179,15 +177,13 @@ class MotionConfig:
 
     accel_scale: float = 3.0
     jerk_scale: float = 12.0
-    lin_speed: float = 0.5
+    lin_speed: float = 1.0
     lin_step: float = 0.005
-    standoff: float = 0.7
-    pregrasp: float = 0.25
-    grasp_depth: float = 0.15
+    standoff: float = 0.5
     grasp_dz: float = 0.0
     lift: float = 0.04
     drop_position: tuple[float, float, float] = (-0.1, 2.5, 1.6)
-    ready_q: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    ready_q: tuple[float, float, float, float, float, float] = (0.8, -0.2, 0.2, 0.0, 0.0, 0.0)
     close_timeout: float = 1.0
     release_wait: float = 0.35
 
