@@ -169,7 +169,11 @@ class MotionConfig:
             approach direction [m] (the straight-line approach passes the published pre-grasp).
         grasp_dz: Height of the grasp point relative to the target's centre [m].
         lift: Height of the lift after closing [m].
-        drop_position: gripper_link position above the bin at release [m].
+        drop_height: Height of gripper_link above the ground at release [m] (published: 1.6).
+        drop_spots: Where successive cylinders are released, as offsets of the cylinder's centre
+            from the bin's centre [m], used in turn. The published cell drops every cylinder at
+            one point, (-0.1, 2.5, 1.6); released upright on the same spot, cylinders land on
+            each other and stack into a tower that tops the rim, so we spread them over a grid.
         ready_q: Joint state the arm waits in between cycles [rad].
         close_timeout: Longest wait for the grip to settle after closing starts [s].
         release_wait: Wait after opening before the arm leaves the bin [s].
@@ -182,14 +186,20 @@ class MotionConfig:
     standoff: float = 0.5
     grasp_dz: float = 0.0
     lift: float = 0.04
-    drop_position: tuple[float, float, float] = (-0.1, 2.5, 1.6)
+    drop_height: float = 1.6
+    drop_spots: tuple[tuple[float, float], ...] = tuple(
+        (dx, dy) for dy in (0.0, 0.22, -0.22) for dx in (0.0, 0.22, -0.22)
+    )
     ready_q: tuple[float, float, float, float, float, float] = (0.8, -0.2, 0.2, 0.0, 0.0, 0.0)
     close_timeout: float = 1.0
     release_wait: float = 0.35
 
     def __post_init__(self) -> None:
-        for name in ("accel_scale", "jerk_scale", "lin_speed", "lin_step", "standoff", "close_timeout"):
+        for name in ("accel_scale", "jerk_scale", "lin_speed", "lin_step", "standoff",
+                     "close_timeout", "drop_height"):
             _check_positive(f"motion {name}", getattr(self, name))
+        if not self.drop_spots:
+            raise ConfigError("drop_spots must name at least one spot")
 
 
 @dataclass(frozen=True, slots=True)

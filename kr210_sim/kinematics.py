@@ -557,13 +557,16 @@ def _why_unreachable(T: FloatArray) -> str:
             f"out of reach: the wrist centre {np.round(w, 3).tolist()} is {best_gap:.3f} m beyond "
             f"the arm's {g.reach:.3f} m reach from joint_2"
         )
-    broken: set[str] = set()
+    # For each joint, the smallest excess over its limits among the branches that need it.
+    excess: dict[int, float] = {}
     for row in _branches(T[None], g)[0]:
         if np.isnan(row[0]):
             continue
-        for j in range(6):
-            v = _best_twin(float(row[j]), 0.0, g.lower[j], g.upper[j])
-            if v < g.lower[j] - LIMIT_SLACK or v > g.upper[j] + LIMIT_SLACK:
-                broken.add(f"{ARM_JOINTS[j]} ({math.degrees(v):.1f} deg outside "
-                           f"[{math.degrees(g.lower[j]):.0f}, {math.degrees(g.upper[j]):.0f}])")
-    return "every solution breaks a joint limit: " + "; ".join(sorted(broken))
+        for jnt in range(6):
+            v = _best_twin(math.remainder(float(row[jnt]), TWO_PI), 0.0, g.lower[jnt], g.upper[jnt])
+            over = max(g.lower[jnt] - v, v - g.upper[jnt])
+            if over > LIMIT_SLACK:
+                excess[jnt] = min(excess.get(jnt, math.inf), over)
+    parts = [f"{ARM_JOINTS[jnt]} by >= {math.degrees(e):.1f} deg"
+             for jnt, e in sorted(excess.items())]
+    return "every solution breaks a joint limit: " + ", ".join(parts)

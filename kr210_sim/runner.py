@@ -33,7 +33,7 @@ FloatArray = npt.NDArray[np.float64]
 #: Time a freshly spawned target is left to settle before it is observed [s].
 SPAWN_SETTLE = 0.1
 #: Longest wait for a released target to come to rest in the bin [s].
-SETTLE_TIMEOUT = 2.0
+SETTLE_TIMEOUT = 3.0
 #: Finger speed below which a closing grip counts as settled [m/s].
 GRIP_SETTLED_SPEED = 0.005
 #: Largest mismatch between the finger gap and the target diameter for a confirmed grip [m].
@@ -305,7 +305,11 @@ class Runner:
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
-                carry = self.planner.plan_carry(self.q_cmd)
+                spots = cfg.motion.drop_spots
+                dx, dy = spots[(index - 1) % len(spots)]
+                bx, by = cfg.cell.bin.center_xy
+                carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy),
+                                                sample.spec.radius)
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE

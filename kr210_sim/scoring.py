@@ -26,8 +26,9 @@ class Outcome(str, Enum):
     MISSED_BIN = "missed_bin"
 
 
-#: Largest linear speed of a target counted as resting, in [m/s].
-REST_SPEED = 0.02
+#: Largest linear speed of a target counted as resting, in [m/s] (a cylinder lying on its side
+#: may still roll slowly across the bin floor).
+REST_SPEED = 0.05
 
 
 @dataclass(frozen=True, slots=True)

@@ -185,10 +185,19 @@ class Planner:
         retreat = self.lin("retreat", lift.q_end, T_back)
         return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat)
 
-    def plan_carry(self, q_start: FloatArray) -> Move:
-        """Joint-space move from ``q_start`` to the drop pose above the bin."""
-        T_drop = gripper_pose(self.motion.drop_position, radial_yaw(self.motion.drop_position))
-        q_drop = self.solve(T_drop, q_start, "drop")
+    def drop_pose(self, drop_xy: npt.ArrayLike, target_radius: float) -> FloatArray:
+        """gripper_link pose that holds the target's centre above ``drop_xy`` [m] at release."""
+        xy = np.asarray(drop_xy, dtype=np.float64)
+        yaw = math.atan2(xy[1], xy[0])
+        depth = grasp_depth(self.robot, target_radius)
+        p = np.array([xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw),
+                      self.motion.drop_height])
+        return gripper_pose(p, yaw)
+
+    def plan_carry(self, q_start: FloatArray, drop_xy: npt.ArrayLike,
+                   target_radius: float) -> Move:
+        """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]."""
+        q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop")
         return self.ptp("carry", q_start, q_drop)
 
     def plan_return(self, q_start: FloatArray) -> Move:

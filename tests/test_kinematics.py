@@ -1,0 +1,205 @@
+"""Closed-form kinematics: golden figures, cross-checks and round-trip properties."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from kr210_sim import kinematics as kin
+from kr210_sim.errors import Kr210SimError, UnreachablePoseError
+from kr210_sim.paths import URDF_PATH
+
+G = kin.geometry()
+
+
+def random_q(rng: np.random.Generator, n: int) -> np.ndarray:
+    return rng.uniform(G.lower, G.upper, size=(n, 6))
+
+
+def rot_angle(Ra: np.ndarray, Rb: np.ndarray) -> np.ndarray:
+    """Angle [rad] of the rotation between Ra and Rb (batched)."""
+    c = (np.trace(np.swapaxes(Ra, -1, -2) @ Rb, axis1=-2, axis2=-1) - 1.0) / 2.0
+    return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def test_geometry_comes_from_urdf() -> None:
+    assert (G.d0 + G.h1, G.a1, G.a2) == pytest.approx((0.75, 0.35, 1.25))
+    assert (G.a3x, G.a3z, G.dg) == pytest.approx((1.50, -0.054, 0.303))
+    assert G.forearm == pytest.approx(math.sqrt(1.5**2 + 0.054**2))
+    assert G.forearm_angle == pytest.approx(math.atan2(0.054, 1.5))
+    assert np.degrees(G.upper[3]) == pytest.approx(350.0)
+
+
+def test_published_zero_pose() -> None:
+    T = kin.forward(np.zeros(6))
+    assert T[:3, 3] == pytest.approx([2.153, 0.0, 1.946], abs=1e-12)
+    assert np.allclose(T[:3, :3], np.eye(3), atol=1e-12)
+
+
+def test_forward_matches_yourdfpy() -> None:
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(str(URDF_PATH), load_meshes=False, build_collision_scene_graph=False)
+    rng = np.random.default_rng(1)
+    qs = random_q(rng, 300)
+    ours = kin.forward(qs)
+    names = [f"joint_{i}" for i in range(1, 7)]
+    for q, T in zip(qs, ours, strict=True):
+        cfg = dict(zip(names, q, strict=True))
+        cfg.update(right_gripper_finger_joint=0.0, left_gripper_finger_joint=0.0)
+        urdf.update_cfg(cfg)
+        ref = urdf.get_transform("gripper_link", "base_link")
+        assert np.abs(ref - T).max() < 1e-9
+
+
+def test_round_trip_every_solution_and_original_found() -> None:
+    rng = np.random.default_rng(2)
+    qs = random_q(rng, 10_000)
+    T = kin.forward(qs)
+    sols = kin.inverse(T)
+    assert sols.shape == (10_000, 8, 6)
+    valid = ~np.isnan(sols).any(axis=-1)
+    assert valid.any(axis=1).all()
+    back = kin.forward(np.where(valid[..., None], sols, 0.0).reshape(-1, 6)).reshape(-1, 8, 4, 4)
+    pos_err = np.linalg.norm(back[..., :3, 3] - T[:, None, :3, 3], axis=-1)[valid]
+    ang_err = rot_angle(back[..., :3, :3], np.broadcast_to(T[:, None, :3, :3], back[..., :3, :3].shape))[valid]
+    assert pos_err.max() <= 1e-9
+    assert ang_err.max() <= 1e-7  # arccos near 1 loses precision: 1e-7 rad = |R - R'| ~ 1e-14
+    rot_dev = np.abs(back[..., :3, :3] - T[:, None, :3, :3]).max(axis=(-2, -1))[valid]
+    assert rot_dev.max() <= 1e-9
+    # one solution equals the original q modulo 2 pi
+    diff = np.abs(np.remainder(sols - qs[:, None] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
+    assert (np.nanmin(diff, axis=1) < 1e-7).all()
+    # every returned solution is inside the limits
+    v = sols[valid]
+    assert (v >= G.lower - 1e-9).all() and (v <= G.upper + 1e-9).all()
+
+
+def test_single_and_batch_paths_agree() -> None:
+    rng = np.random.default_rng(3)
+    qs = random_q(rng, 500)
+    T = kin.forward(qs)
+    batch = kin.inverse(T)
+    for i in range(len(qs)):
+        single = kin.inverse(T[i])
+        b = batch[i][~np.isnan(batch[i]).any(axis=1)]
+        assert single.shape == b.shape
+        assert np.allclose(single, b, atol=1e-9)
+        assert np.allclose(kin.forward(qs[i]), T[i], atol=1e-12)
+
+
+def test_nearest_returns_reference_when_it_is_a_solution() -> None:
+    rng = np.random.default_rng(4)
+    for q in random_q(rng, 500):
+        assert np.allclose(kin.nearest(kin.forward(q), q), q, atol=1e-7)
+
+
+def test_nearest_never_jumps_a_full_turn_along_a_path() -> None:
+    # Roll the gripper about its own x axis through +-pi and beyond: q6 must wind, not wrap.
+    q = np.array([0.2, 0.1, -0.2, 0.0, 0.6, 0.0])
+    T0 = kin.forward(q)
+    prev = q
+    for a in np.linspace(0.0, 1.8 * np.pi, 400):
+        R_roll = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        T = T0.copy()
+        T[:3, :3] = T0[:3, :3] @ R_roll
+        qn = kin.nearest(T, prev)
+        assert np.abs(qn - prev).max() < 0.1
+        prev = qn
+    assert prev[5] > np.pi  # wound past +pi inside the +-350 deg limit
+
+
+def test_wrist_singularity() -> None:
+    q = np.array([0.3, 0.2, -0.1, 0.7, 0.0, -0.4])  # q5 = 0: only q4 + q6 is defined
+    T = kin.forward(q)
+    sols = kin.inverse(T)
+    assert len(sols) >= 1 and not np.isnan(sols).any()
+    for s in sols:
+        assert np.abs(kin.forward(s) - T).max() < 1e-9
+    n = kin.nearest(T, q)
+    assert np.abs(kin.forward(n) - T).max() < 1e-9
+    assert n[3] == pytest.approx(0.7)  # keeps the reference's q4
+    assert n[5] == pytest.approx(-0.4)
+
+
+def test_wrist_centre_on_joint_1_axis() -> None:
+    # q2 = 0 and q3 chosen so the wrist centre sits on the joint_1 axis: q1 is then free.
+    q3 = -math.acos(-G.a1 / G.forearm) - G.forearm_angle
+    q = np.array([0.4, 0.0, q3, 0.3, 0.5, 0.2])
+    T = kin.forward(q)
+    w = T[:3, 3] - G.dg * T[:3, 0]
+    assert np.hypot(w[0], w[1]) < 1e-12
+    sols = kin.inverse(T)
+    assert len(sols) >= 1 and not np.isnan(sols).any()
+    for s in sols:
+        assert np.abs(kin.forward(s) - T).max() < 1e-9
+    n = kin.nearest(T, q)
+    assert np.abs(kin.forward(n) - T).max() < 1e-9
+
+
+def test_arm_stretched_boundary() -> None:
+    # Elbow straight (wrist centre at full reach): one elbow branch, still exact.
+    q = np.array([0.0, 0.5, -np.pi / 2 + G.forearm_angle, 0.0, 0.3, 0.0])
+    T = kin.forward(q)
+    sols = kin.inverse(T)
+    assert len(sols) >= 1
+    assert min(np.abs(s - q).max() for s in sols) < 1e-6
+    for s in sols:
+        assert np.abs(kin.forward(s) - T).max() < 1e-9
+
+
+def test_unreachable_pose() -> None:
+    T = np.eye(4)
+    T[:3, 3] = [5.0, 0.0, 1.0]
+    assert kin.inverse(T).shape == (0, 6)
+    assert np.isnan(kin.inverse(T[None])).all()
+    with pytest.raises(UnreachablePoseError, match=r"out of reach: .* 1\.\d+ m beyond"):
+        kin.nearest(T, np.zeros(6))
+
+
+def test_unreachable_by_joint_limit_names_the_joint() -> None:
+    # Within reach, but pointing back at the base: the wrist would have to fold past 125 deg.
+    T = np.eye(4)
+    T[:3, :3] = np.diag([-1.0, -1.0, 1.0])
+    T[:3, 3] = [1.8, 0.0, 1.5]
+    assert kin.inverse(T).shape == (0, 6)
+    with pytest.raises(UnreachablePoseError, match=r"joint limit: .*joint_5 by >= \d+\.\d deg"):
+        kin.nearest(T, np.zeros(6))
+
+
+def test_error_hierarchy() -> None:
+    assert issubclass(UnreachablePoseError, Kr210SimError)
+    assert issubclass(UnreachablePoseError, ValueError)
+
+
+@pytest.mark.parametrize(
+    ("pose", "message"),
+    [
+        (np.eye(3), "shape"),
+        (np.full((4, 4), np.nan), "NaN"),
+        (np.diag([1.0, 1.0, 2.0, 1.0]), "orthonormal"),
+        (np.diag([1.0, 1.0, -1.0, 1.0]), "reflection"),
+        (np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 1]], float), "bottom row"),
+    ],
+)
+def test_invalid_pose(pose: np.ndarray, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        kin.inverse(pose)
+    if pose.shape == (4, 4):
+        with pytest.raises(ValueError, match=message):
+            kin.nearest(pose, np.zeros(6))
+
+
+def test_invalid_q() -> None:
+    with pytest.raises(ValueError, match="shape"):
+        kin.forward(np.zeros(5))
+    with pytest.raises(ValueError, match="NaN"):
+        kin.forward([0, 0, np.nan, 0, 0, 0])
+    with pytest.raises(ValueError, match="q_ref"):
+        kin.nearest(np.eye(4), np.zeros(3))
+    bad = np.eye(4)[None].repeat(2, 0)
+    bad[1, 0, 0] = 2.0
+    with pytest.raises(ValueError, match="orthonormal"):
+        kin.inverse(bad)

@@ -1,0 +1,113 @@
+"""The MuJoCo cell: compiles cleanly, holds still, agrees with our kinematics, is current."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from kr210_sim import kinematics as kin
+from kr210_sim.config import CellConfig, MotionConfig
+from kr210_sim.control import Cell, hold
+from kr210_sim.paths import SCENE_PATH
+from kr210_sim.robot import ARM_JOINTS, FINGER_JOINTS, load_robot
+from kr210_sim.scene import CellHandles, build_scene, load_model
+from kr210_sim.task import Planner, grasp_depth, radial_yaw
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return load_model()
+
+
+def test_names_kept_from_urdf(model: mujoco.MjModel) -> None:
+    for name in (*ARM_JOINTS, *FINGER_JOINTS):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) >= 0
+    for name in ("base_link", "gripper_link", "link_6"):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) >= 0
+    for name in ("tcp", "gripper"):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name) >= 0
+    for name in ("overview", "shelf", "gripper"):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home") >= 0
+    assert model.nu == 7
+    assert len(CellHandles.from_model(model).target_bodies) == 10
+
+
+def test_holds_home_for_two_seconds(model: mujoco.MjModel) -> None:
+    cell = Cell(model)
+    q0 = np.array(MotionConfig().ready_q)
+    cell.reset(q0)
+    cell.track(hold(q0, 2.0))
+    assert np.degrees(np.abs(cell.q - q0)).max() < 0.1
+    assert not cell.data.warning.number.any()
+
+
+def test_mujoco_pose_matches_forward_kinematics(model: mujoco.MjModel) -> None:
+    data = mujoco.MjData(model)
+    h = CellHandles.from_model(model)
+    rng = np.random.default_rng(6)
+    robot = load_robot()
+    qs = rng.uniform(robot.q_lower, robot.q_upper, size=(1000, 6))
+    ours = kin.forward(qs)
+    worst = 0.0
+    for q, T in zip(qs, ours, strict=True):
+        data.qpos[h.arm_qpos] = q
+        mujoco.mj_kinematics(model, data)
+        worst = max(worst, float(np.abs(data.xpos[h.gripper_body] - T[:3, 3]).max()),
+                    float(np.abs(data.xmat[h.gripper_body].reshape(3, 3) - T[:3, :3]).max()))
+    assert worst < 1e-9
+
+
+@pytest.mark.parametrize("slot", range(1, 10))
+def test_target_rests_in_each_slot(model: mujoco.MjModel, slot: int) -> None:
+    cfg = CellConfig()
+    cell = Cell(model, cfg)
+    q0 = np.array(MotionConfig().ready_q)
+    cell.reset(q0)
+    h = cell.handles
+    a = int(h.target_qpos[0])
+    p0 = cfg.slot(slot)
+    cell.data.qpos[a : a + 3] = p0
+    cell.data.qpos[a + 3 : a + 7] = (1, 0, 0, 0)
+    mujoco.mj_forward(model, cell.data)
+    cell.track(hold(q0, 2.0))
+    p, _ = cell.target_pose(0)
+    assert np.linalg.norm(p - p0) < 1e-3
+
+
+def test_every_slot_and_drop_reachable() -> None:
+    robot, motion, cell = load_robot(), MotionConfig(), CellConfig()
+    planner = Planner(robot, motion)
+    depth = grasp_depth(robot, cell.target.radius)
+    for slot in range(1, 10):
+        p = cell.slot(slot)
+        yaw = radial_yaw(p)
+        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+        for dist in (depth, depth + 0.4, depth + motion.standoff):  # grasp, published pre-grasp
+            T = np.eye(4)
+            T[:3, :3] = [[u[0], -u[1], 0], [u[1], u[0], 0], [0, 0, 1]]
+            T[:3, 3] = p - dist * u
+            q = kin.nearest(T, np.zeros(6))
+            assert np.all(q >= robot.q_lower) and np.all(q <= robot.q_upper)
+    bx, by = cell.bin.center_xy
+    for dx, dy in motion.drop_spots:
+        kin.nearest(planner.drop_pose((bx + dx, by + dy), cell.target.radius), np.zeros(6))
+
+
+def test_build_is_deterministic_and_committed_scene_is_current(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    a, b = tmp_path / "a", tmp_path / "b"
+    (pa,) = build_scene(a)
+    (pb,) = build_scene(b)
+    assert pa.read_text() == pb.read_text()
+    # mesh paths are relative to the output folder, so compare with meshdir normalised
+    fresh = pa.read_text().replace(_meshdir(pa.read_text()), "MESHDIR")
+    committed = SCENE_PATH.read_text().replace(_meshdir(SCENE_PATH.read_text()), "MESHDIR")
+    assert fresh == committed, "scenes/ is stale: run `python -m kr210_sim build-scene`"
+
+
+def _meshdir(xml: str) -> str:
+    start = xml.index('meshdir="') + len('meshdir="')
+    return xml[start : xml.index('"', start)]
