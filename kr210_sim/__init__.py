@@ -15,7 +15,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 
 __version__ = "0.1.0"
 
-from kr210_sim.errors import (  # noqa: E402
+from kr210_sim.errors import (
     ConfigError,
     Kr210SimError,
     PlanningError,

@@ -68,12 +68,16 @@ def _seed(text: str) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.report import build_report, check_writable, cycle_line, summary_table
-    from kr210_sim.report import write_json_atomic
-    from kr210_sim.runner import Runner, RunConfig
+    from kr210_sim.report import (
+        build_report,
+        check_writable,
+        cycle_line,
+        summary_table,
+        write_json_atomic,
+    )
+    from kr210_sim.runner import RunConfig, Runner
 
-    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot,
-                       randomize=args.randomize)
+    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     report_path = check_writable(args.report)
     runner = Runner(config)
     wall0 = time.perf_counter()
@@ -97,8 +101,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if interrupted:
         return 130
     passed = summary["success_rate"] >= args.min_success
-    out.write(f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
-              f"cycles succeeded (pass bar {args.min_success:.0%})\n")
+    out.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
     return 0 if passed else 1
 
 
@@ -137,14 +143,26 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run and score pick-and-place cycles")
     run.add_argument("--cycles", type=_positive_int, default=10, help="cycles to run (10)")
     run.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
-    run.add_argument("--slot", type=_slot, default=0,
-                     help="slot 1-9 (bottom row first), 0 = random per cycle (0)")
-    run.add_argument("--randomize", action="store_true",
-                     help="randomise target pose, size, mass and friction per cycle")
-    run.add_argument("--report", type=Path, default=DEFAULT_REPORT,
-                     help=f"JSON report path ({DEFAULT_REPORT})")
-    run.add_argument("--min-success", type=_fraction, default=0.8,
-                     help="pass bar: exit 1 below this success rate (0.8)")
+    run.add_argument(
+        "--slot",
+        type=_slot,
+        default=0,
+        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
+    )
+    run.add_argument(
+        "--randomize",
+        action="store_true",
+        help="randomise target pose, size, mass and friction per cycle",
+    )
+    run.add_argument(
+        "--report", type=Path, default=DEFAULT_REPORT, help=f"JSON report path ({DEFAULT_REPORT})"
+    )
+    run.add_argument(
+        "--min-success",
+        type=_fraction,
+        default=0.8,
+        help="pass bar: exit 1 below this success rate (0.8)",
+    )
     run.set_defaults(func=_cmd_run)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
@@ -168,8 +186,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
     if getattr(args, "out", "") is None and args.command == "build-scene":
         from kr210_sim.paths import SCENES_DIR
 

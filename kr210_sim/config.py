@@ -195,8 +195,15 @@ class MotionConfig:
     release_wait: float = 0.35
 
     def __post_init__(self) -> None:
-        for name in ("accel_scale", "jerk_scale", "lin_speed", "lin_step", "standoff",
-                     "close_timeout", "drop_height"):
+        for name in (
+            "accel_scale",
+            "jerk_scale",
+            "lin_speed",
+            "lin_step",
+            "standoff",
+            "close_timeout",
+            "drop_height",
+        ):
             _check_positive(f"motion {name}", getattr(self, name))
         if not self.drop_spots:
             raise ConfigError("drop_spots must name at least one spot")

@@ -115,8 +115,9 @@ class Cell:
         self.kp = model.actuator_gainprm[h.arm_act, 0].copy()
         self.kv = -model.actuator_biasprm[h.arm_act, 2].copy()
         self._finger_dof = int(
-            model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT,
-                                               "right_gripper_finger_joint")]
+            model.jnt_dofadr[
+                mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "right_gripper_finger_joint")
+            ]
         )
         self._m_diag = (model.M_rowadr + model.M_rownnz - 1)[h.arm_dof]
         self._is_robot = np.zeros(model.ngeom, dtype=bool)
@@ -285,8 +286,10 @@ class Cell:
                 if d.ncon:
                     g = d.contact.geom[: d.ncon]
                     hit = bool(
-                        np.any((is_robot[g[:, 0]] & is_env[g[:, 1]])
-                               | (is_env[g[:, 0]] & is_robot[g[:, 1]]))
+                        np.any(
+                            (is_robot[g[:, 0]] & is_env[g[:, 1]])
+                            | (is_env[g[:, 0]] & is_robot[g[:, 1]])
+                        )
                     )
                     if hit:
                         recording.contact_pairs.update(self.env_contact_pairs())

@@ -257,8 +257,9 @@ _POOL: ThreadPoolExecutor | None = None
 def _pool() -> ThreadPoolExecutor:
     global _POOL
     if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)),
-                                   thread_name_prefix="kr210-ik")
+        _POOL = ThreadPoolExecutor(
+            max_workers=max(1, min(4, os.cpu_count() or 1)), thread_name_prefix="kr210-ik"
+        )
     return _POOL
 
 
@@ -437,7 +438,7 @@ def _solutions_scalar(T: FloatArray, g: Geometry) -> list[list[float]]:
         c1, s1 = math.cos(q1), math.sin(q1)
         # rows of Rz(q1)^T R
         t00, t01, t02 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
-        t10, t11, t12 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11, -s1 * r02 + c1 * r12
+        t10, t11 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11
         q1w = _wrap_into(q1, lo[0], hi[0])
         elbows = (1.0,) if abs(cos_d) >= 1.0 else (1.0, -1.0)  # one elbow when stretched
         for elbow in elbows:
@@ -567,6 +568,7 @@ def _why_unreachable(T: FloatArray) -> str:
             over = max(g.lower[jnt] - v, v - g.upper[jnt])
             if over > LIMIT_SLACK:
                 excess[jnt] = min(excess.get(jnt, math.inf), over)
-    parts = [f"{ARM_JOINTS[jnt]} by >= {math.degrees(e):.1f} deg"
-             for jnt, e in sorted(excess.items())]
+    parts = [
+        f"{ARM_JOINTS[jnt]} by >= {math.degrees(e):.1f} deg" for jnt, e in sorted(excess.items())
+    ]
     return "every solution breaks a joint limit: " + ", ".join(parts)

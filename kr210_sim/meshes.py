@@ -20,8 +20,20 @@ from kr210_sim.paths import MESH_DIR
 SECTIONS = 40
 
 
-def _cyl(axis: str, radius: float, start: float, end: float,
-         at: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> trimesh.Trimesh:
+def _union(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """Concatenate meshes into one (no boolean: the meshes are visual only)."""
+    mesh = trimesh.util.concatenate(parts)
+    assert isinstance(mesh, trimesh.Trimesh)
+    return mesh
+
+
+def _cyl(
+    axis: str,
+    radius: float,
+    start: float,
+    end: float,
+    at: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> trimesh.Trimesh:
     """A cylinder of ``radius`` [m] along ``axis`` ("x", "y" or "z") from ``start`` to ``end`` [m]
     (coordinates along the axis), its axis through ``at`` (the other two coordinates)."""
     length = end - start
@@ -45,8 +57,9 @@ def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trim
     return mesh
 
 
-def _rounded_box(lo: tuple[float, float, float], hi: tuple[float, float, float],
-                 radius: float) -> trimesh.Trimesh:
+def _rounded_box(
+    lo: tuple[float, float, float], hi: tuple[float, float, float], radius: float
+) -> trimesh.Trimesh:
     """A box with its four edges parallel to y rounded by ``radius`` [m] (two boxes and four
     cylinders)."""
     (x0, y0, z0), (x1, y1, z1) = lo, hi
@@ -58,73 +71,89 @@ def _rounded_box(lo: tuple[float, float, float], hi: tuple[float, float, float],
     for x in (x0 + r, x1 - r):
         for z in (z0 + r, z1 - r):
             parts.append(_cyl("y", r, y0, y1, (x, 0.0, z)))
-    return trimesh.util.concatenate(parts)
+    return _union(parts)
 
 
 def _base_link() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("z", 0.42, 0.0, 0.05),
-        _cyl("z", 0.34, 0.05, 0.28),
-        _cyl("z", 0.38, 0.28, 0.33),
-    ])
+    return _union(
+        [
+            _cyl("z", 0.42, 0.0, 0.05),
+            _cyl("z", 0.34, 0.05, 0.28),
+            _cyl("z", 0.38, 0.28, 0.33),
+        ]
+    )
 
 
 def _link_1() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("z", 0.39, 0.0, 0.16),
-        _rounded_box((-0.05, -0.24, 0.12), (0.44, 0.24, 0.5), 0.08),
-        _cyl("y", 0.2, -0.25, 0.25, (0.35, 0.0, 0.42)),
-        _cyl("z", 0.13, 0.16, 0.42, (-0.12, 0.0, 0.0)),  # joint_1 motor, behind the column
-    ])
+    return _union(
+        [
+            _cyl("z", 0.39, 0.0, 0.16),
+            _rounded_box((-0.05, -0.24, 0.12), (0.44, 0.24, 0.5), 0.08),
+            _cyl("y", 0.2, -0.25, 0.25, (0.35, 0.0, 0.42)),
+            _cyl("z", 0.13, 0.16, 0.42, (-0.12, 0.0, 0.0)),  # joint_1 motor, behind the column
+        ]
+    )
 
 
 def _link_2() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("y", 0.19, -0.11, 0.11),
-        _rounded_box((-0.12, -0.1, 0.0), (0.12, 0.1, 1.25), 0.05),
-        _cyl("y", 0.16, -0.11, 0.11, (0.0, 0.0, 1.25)),
-    ])
+    return _union(
+        [
+            _cyl("y", 0.19, -0.11, 0.11),
+            _rounded_box((-0.12, -0.1, 0.0), (0.12, 0.1, 1.25), 0.05),
+            _cyl("y", 0.16, -0.11, 0.11, (0.0, 0.0, 1.25)),
+        ]
+    )
 
 
 def _link_3() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("y", 0.17, -0.14, 0.14),
-        _rounded_box((-0.42, -0.14, -0.17), (0.32, 0.14, 0.15), 0.06),
-        _cyl("x", 0.12, 0.3, 0.96, (0.0, 0.0, -0.054)),
-        # axis 4-6 motors at the back of the forearm housing
-        _cyl("x", 0.06, -0.5, -0.4, (0.0, -0.08, -0.03)),
-        _cyl("x", 0.06, -0.5, -0.4, (0.0, 0.08, -0.03)),
-        _cyl("x", 0.06, -0.5, -0.4, (0.0, 0.0, 0.08)),
-    ])
+    return _union(
+        [
+            _cyl("y", 0.17, -0.14, 0.14),
+            _rounded_box((-0.42, -0.14, -0.17), (0.32, 0.14, 0.15), 0.06),
+            _cyl("x", 0.12, 0.3, 0.96, (0.0, 0.0, -0.054)),
+            # axis 4-6 motors at the back of the forearm housing
+            _cyl("x", 0.06, -0.5, -0.4, (0.0, -0.08, -0.03)),
+            _cyl("x", 0.06, -0.5, -0.4, (0.0, 0.08, -0.03)),
+            _cyl("x", 0.06, -0.5, -0.4, (0.0, 0.0, 0.08)),
+        ]
+    )
 
 
 def _link_4() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("x", 0.11, 0.0, 0.38),
-        _box((0.36, -0.1, -0.07), (0.46, 0.1, 0.07)),
-        _box((0.4, 0.075, -0.06), (0.58, 0.105, 0.06)),
-        _box((0.4, -0.105, -0.06), (0.58, -0.075, 0.06)),
-    ])
+    return _union(
+        [
+            _cyl("x", 0.11, 0.0, 0.38),
+            _box((0.36, -0.1, -0.07), (0.46, 0.1, 0.07)),
+            _box((0.4, 0.075, -0.06), (0.58, 0.105, 0.06)),
+            _box((0.4, -0.105, -0.06), (0.58, -0.075, 0.06)),
+        ]
+    )
 
 
 def _link_5() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("y", 0.07, -0.075, 0.075),
-        _cyl("x", 0.065, 0.0, 0.17),
-    ])
+    return _union(
+        [
+            _cyl("y", 0.07, -0.075, 0.075),
+            _cyl("x", 0.065, 0.0, 0.17),
+        ]
+    )
 
 
 def _link_6() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _cyl("x", 0.075, 0.0, 0.02),
-        _cyl("x", 0.05, 0.02, 0.035),
-    ])
+    return _union(
+        [
+            _cyl("x", 0.075, 0.0, 0.02),
+            _cyl("x", 0.05, 0.02, 0.035),
+        ]
+    )
 
 
 def _gripper_link() -> trimesh.Trimesh:
-    return trimesh.util.concatenate([
-        _rounded_box((-0.075, -0.1, -0.05), (0.075, 0.1, 0.05), 0.015),
-    ])
+    return _union(
+        [
+            _rounded_box((-0.075, -0.1, -0.05), (0.075, 0.1, 0.05), 0.015),
+        ]
+    )
 
 
 def _finger() -> trimesh.Trimesh:

@@ -62,16 +62,22 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
         raise RenderError(GL_HELP.format(gl=gl) + f" [{type(exc).__name__}: {exc}]") from exc
 
 
-def render_frame(renderer: mujoco.Renderer, data: mujoco.MjData, camera: int | str,
-                 shadows: bool = True) -> npt.NDArray[np.uint8]:
+def render_frame(
+    renderer: mujoco.Renderer, data: mujoco.MjData, camera: int | str, shadows: bool = True
+) -> npt.NDArray[np.uint8]:
     """Render one RGB frame (height, width, 3) of ``data`` from ``camera``."""
     renderer.update_scene(data, camera=camera)
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
     return renderer.render()
 
 
-def snapshot(out: Path | str, camera: str = "overview", width: int = 1280, height: int = 720,
-             model: mujoco.MjModel | None = None) -> Path:
+def snapshot(
+    out: Path | str,
+    camera: str = "overview",
+    width: int = 1280,
+    height: int = 720,
+    model: mujoco.MjModel | None = None,
+) -> Path:
     """Render a still of the cell (arm at its ready pose, a target in every slot) to a PNG.
 
     Args:
@@ -87,9 +93,8 @@ def snapshot(out: Path | str, camera: str = "overview", width: int = 1280, heigh
     import imageio.v3 as iio
 
     from kr210_sim.config import CellConfig, MotionConfig
-    from kr210_sim.scene import CellHandles, load_model
-
     from kr210_sim.report import check_writable
+    from kr210_sim.scene import CellHandles, load_model
 
     path = check_writable(out)
     model = model if model is not None else load_model()

@@ -31,7 +31,7 @@ WALL_KEYS = frozenset({"wall_time", "wall_time_s", "real_time_factor", "steps_pe
 def versions() -> dict[str, str]:
     """Versions of the package, Python and the libraries that shape the results."""
     import mujoco
-    import ruckig  # type: ignore[import-not-found]
+    import ruckig
 
     out = {
         "kr210_sim": __version__,
@@ -67,8 +67,9 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         "cycle_time_mean": float(times.mean()) if n else 0.0,
         "cycle_time_max": float(times.max()) if n else 0.0,
         "cycle_time_min": float(times.min()) if n else 0.0,
-        "max_tracking_error_deg": max((max(r.max_tracking_error_deg) for r in results),
-                                      default=0.0),
+        "max_tracking_error_deg": max(
+            (max(r.max_tracking_error_deg) for r in results), default=0.0
+        ),
         "max_gripper_error_mm": max((r.max_gripper_error_mm for r in results), default=0.0),
         "max_creep_mm": max(grasped, default=0.0),
         "env_contact_ticks": sum(r.env_contact_ticks for r in results),
@@ -95,8 +96,12 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
-def build_report(config: RunConfig, results: Sequence[CycleResult], wall_time: float | None,
-                 interrupted: bool = False) -> dict[str, Any]:
+def build_report(
+    config: RunConfig,
+    results: Sequence[CycleResult],
+    wall_time: float | None,
+    interrupted: bool = False,
+) -> dict[str, Any]:
     """The JSON-ready report of a run: config, per-cycle records, summary, versions."""
     return {
         "kind": "kr210_sim.run",
@@ -118,6 +123,8 @@ def check_writable(path: Path | str) -> Path:
     parent = p.parent if str(p.parent) else Path(".")
     if p.is_dir():
         raise ConfigError(f"{p} is a folder; give a file path")
+    if parent.exists() and not parent.is_dir():
+        raise ConfigError(f"cannot write {p}: {parent} is a file, not a folder")
     if not parent.exists():
         try:
             parent.mkdir(parents=True, exist_ok=True)
@@ -132,11 +139,17 @@ def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
     """Write ``payload`` as JSON to ``path`` atomically (sorted keys, 2-space indent)."""
     p = check_writable(path)
     text = json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    except OSError as exc:
+        raise ConfigError(f"cannot write {p}: {exc.strerror}") from exc
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         os.replace(tmp, p)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise ConfigError(f"cannot write {p}: {exc.strerror}") from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -171,15 +184,21 @@ def summary_table(summary: dict[str, Any]) -> str:
         ("cycles", f"{summary['cycles']}"),
         ("successes", f"{summary['successes']} ({100 * summary['success_rate']:.0f} %)"),
         ("failures", ", ".join(f"{k} {v}" for k, v in summary["failures"].items()) or "none"),
-        ("cycle time mean / max", f"{summary['cycle_time_mean']:.2f} / "
-                                  f"{summary['cycle_time_max']:.2f} s"),
+        (
+            "cycle time mean / max",
+            f"{summary['cycle_time_mean']:.2f} / {summary['cycle_time_max']:.2f} s",
+        ),
         ("worst joint tracking error", f"{summary['max_tracking_error_deg']:.3f} deg"),
         ("worst gripper error vs plan", f"{summary['max_gripper_error_mm']:.2f} mm"),
         ("worst creep in the grip", f"{summary['max_creep_mm']:.2f} mm"),
         ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
     ]
     if "wall_time_s" in summary:
-        rows.append(("wall time", f"{summary['wall_time_s']:.2f} s "
-                                  f"({summary['real_time_factor']:.0f}x real time)"))
+        rows.append(
+            (
+                "wall time",
+                f"{summary['wall_time_s']:.2f} s ({summary['real_time_factor']:.0f}x real time)",
+            )
+        )
     w = max(len(k) for k, _ in rows)
     return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)

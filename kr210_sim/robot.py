@@ -93,7 +93,7 @@ class RobotDescription:
     lip_depth: float
 
     def finger_gap(self, finger_q: float) -> float:
-        """Distance between the inner finger faces in [m] at finger joint position ``finger_q`` [m]."""
+        """Distance between the inner finger faces [m] at finger position ``finger_q`` [m]."""
         return self.finger_gap_at_zero - 2.0 * finger_q
 
     def finger_q_for_gap(self, gap: float) -> float:

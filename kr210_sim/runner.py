@@ -183,6 +183,9 @@ def _set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: Target
     model.body_mass[b] = spec.mass
     ixx = spec.mass * (3 * r * r + spec.length**2) / 12.0
     model.body_inertia[b] = (ixx, ixx, spec.mass * r * r / 2.0)
+    # Recompute the derived constants (inverse weights the constraint solver scales by) on a
+    # scratch MjData, so the live state is untouched.
+    mujoco.mj_setConst(model, mujoco.MjData(model))
 
 
 class Runner:
@@ -194,8 +197,12 @@ class Runner:
         robot: The robot description (default: the committed URDF).
     """
 
-    def __init__(self, config: RunConfig, model: mujoco.MjModel | None = None,
-                 robot: RobotDescription | None = None) -> None:
+    def __init__(
+        self,
+        config: RunConfig,
+        model: mujoco.MjModel | None = None,
+        robot: RobotDescription | None = None,
+    ) -> None:
         self.config = config
         self.robot = robot or load_robot()
         self.model = model if model is not None else load_model()
@@ -207,8 +214,13 @@ class Runner:
         self.q_cmd = self.planner.ready_q.copy()
         self.results: list[CycleResult] = []
         self.recordings: list[Recording] = []
-        self.status: dict[str, object] = {"cycle": 0, "cycles": config.cycles, "slot": 0,
-                                          "successes": 0, "phase": "idle"}
+        self.status: dict[str, object] = {
+            "cycle": 0,
+            "cycles": config.cycles,
+            "slot": 0,
+            "successes": 0,
+            "phase": "idle",
+        }
         self._next_target = 0
 
     # -- one cycle -----------------------------------------------------------------------
@@ -233,8 +245,14 @@ class Runner:
         phases[move.phase] = phases.get(move.phase, 0.0) + dt
         self.q_cmd = move.q_end
 
-    def _hold(self, seconds: float, rec: Recording, phase: str, phases: dict[str, float],
-              until: Callable[[Cell], bool] | None = None) -> float:
+    def _hold(
+        self,
+        seconds: float,
+        rec: Recording,
+        phase: str,
+        phases: dict[str, float],
+        until: Callable[[Cell], bool] | None = None,
+    ) -> float:
         self.status["phase"] = phase
         dt = self.cell.track(hold(self.q_cmd, seconds), rec, phase, until=until)
         phases[phase] = phases.get(phase, 0.0) + dt
@@ -290,14 +308,17 @@ class Runner:
                 self._track(plan.approach_lin, rec, phases)
                 confirmed = self._close(sample.spec.radius, rec, phases)
                 if not confirmed:
-                    detail = (f"grip not confirmed on attempt {attempts}: finger gap "
-                              f"{self.robot.finger_gap(cell.finger_q) * 1000:.1f} mm, target "
-                              f"diameter {2000 * sample.spec.radius:.1f} mm")
+                    detail = (
+                        f"grip not confirmed on attempt {attempts}: finger gap "
+                        f"{self.robot.finger_gap(cell.finger_q) * 1000:.1f} mm, target "
+                        f"diameter {2000 * sample.spec.radius:.1f} mm"
+                    )
                     log.info("cycle %d: %s", index, detail)
                     cell.open_gripper()
                     self._hold(0.3, rec, "grasp", phases)
-                    back = self.planner.lin("retreat", self.q_cmd,
-                                            kinematics.forward(plan.approach_ptp.q_end))
+                    back = self.planner.lin(
+                        "retreat", self.q_cmd, kinematics.forward(plan.approach_ptp.q_end)
+                    )
                     self._track(back, rec, phases)
                     continue
                 grip_ref = cell.target_in_gripper()
@@ -308,8 +329,7 @@ class Runner:
                 spots = cfg.motion.drop_spots
                 dx, dy = spots[(index - 1) % len(spots)]
                 bx, by = cfg.cell.bin.center_xy
-                carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy),
-                                                sample.spec.radius)
+                carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy), sample.spec.radius)
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
@@ -329,8 +349,9 @@ class Runner:
                     log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
-        self._hold(SETTLE_TIMEOUT, rec, "settle", phases,
-                   until=lambda c: c.target_speed() < REST_SPEED)
+        self._hold(
+            SETTLE_TIMEOUT, rec, "settle", phases, until=lambda c: c.target_speed() < REST_SPEED
+        )
         obs = CycleObservation(
             planned=planned,
             grasp_confirmed=confirmed,
@@ -345,8 +366,21 @@ class Runner:
             detail = ""
         elif not detail:
             detail = _describe(outcome, obs, rec, cfg.cell)
-        result = self._summarise(index, sample, outcome, detail, rec, cycle_time, attempts,
-                                 grip_ref, i_grip, i_release, phases, wall0, obs)
+        result = self._summarise(
+            index,
+            sample,
+            outcome,
+            detail,
+            rec,
+            cycle_time,
+            attempts,
+            grip_ref,
+            i_grip,
+            i_release,
+            phases,
+            wall0,
+            obs,
+        )
         self.results.append(result)
         self.recordings.append(rec)
         if result.success:
@@ -369,10 +403,22 @@ class Runner:
             mujoco.mj_forward(self.model, cell.data)
             log.info("target %d left on the shelf was cleared to the park area", k)
 
-    def _summarise(self, index: int, sample: TargetSample, outcome: Outcome, detail: str,
-                   rec: Recording, cycle_time: float, attempts: int,
-                   grip_ref: FloatArray | None, i_grip: int, i_release: int,
-                   phases: dict[str, float], wall0: float, obs: CycleObservation) -> CycleResult:
+    def _summarise(
+        self,
+        index: int,
+        sample: TargetSample,
+        outcome: Outcome,
+        detail: str,
+        rec: Recording,
+        cycle_time: float,
+        attempts: int,
+        grip_ref: FloatArray | None,
+        i_grip: int,
+        i_release: int,
+        phases: dict[str, float],
+        wall0: float,
+        obs: CycleObservation,
+    ) -> CycleResult:
         arr = rec.arrays()
         track_deg = np.degrees(np.abs(arr["q"] - arr["q_des"]).max(axis=0))
         planned_pos = kinematics.forward(arr["q_des"])[:, :3, 3]
@@ -422,6 +468,5 @@ def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: Cel
         return f"the target left the fingers before the release; it lies at {p}"
     if outcome is Outcome.MISSED_BIN:
         where = "inside" if in_bin(obs.target_position, cell.bin) else "outside"
-        return (f"the target ended {where} the bin at {p}, moving at "
-                f"{obs.target_speed:.3f} m/s")
+        return f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s"
     return outcome.value

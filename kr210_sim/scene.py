@@ -92,21 +92,28 @@ def _look_at(pos: npt.ArrayLike, target: npt.ArrayLike) -> tuple[float, ...]:
     return (*right.round(6).tolist(), *up.round(6).tolist())
 
 
-def _box(body: mujoco.MjsBody, name: str, center: npt.ArrayLike, half: npt.ArrayLike,
-         rgba: tuple[float, ...], cls: mujoco.MjsDefault) -> mujoco.MjsGeom:
+def _box(
+    body: mujoco.MjsBody,
+    name: str,
+    center: npt.ArrayLike,
+    half: npt.ArrayLike,
+    rgba: tuple[float, ...],
+    cls: mujoco.MjsDefault,
+) -> mujoco.MjsGeom:
     geom = body.add_geom(
         name=name,
         type=mujoco.mjtGeom.mjGEOM_BOX,
-        pos=list(map(float, center)),
-        size=list(map(float, half)),
+        pos=[float(v) for v in np.asarray(center, dtype=float)],
+        size=[float(v) for v in np.asarray(half, dtype=float)],
         rgba=list(rgba),
     )
     geom.classname = cls
     return geom
 
 
-def _configure_robot(spec: mujoco.MjSpec, visual: mujoco.MjsDefault,
-                     collision: mujoco.MjsDefault) -> None:
+def _configure_robot(
+    spec: mujoco.MjSpec, visual: mujoco.MjsDefault, collision: mujoco.MjsDefault
+) -> None:
     """Classes, gravity compensation, armature, damping, sites and camera for the URDF robot."""
     for body_name in (*ARM_LINKS[1:], *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
         body = spec.body(body_name)
@@ -135,8 +142,11 @@ def _configure_robot(spec: mujoco.MjSpec, visual: mujoco.MjsDefault,
         joint.damping = [1.0, 0.0, 0.0]
         joint.actgravcomp = True
     for finger in ("right_gripper_finger_link", "left_gripper_finger_link"):
-        boxes = [g for g in spec.body(finger).geoms if g.type == mujoco.mjtGeom.mjGEOM_BOX
-                 and g.contype != 0]
+        boxes = [
+            g
+            for g in spec.body(finger).geoms
+            if g.type == mujoco.mjtGeom.mjGEOM_BOX and g.contype != 0
+        ]
         if len(boxes) != 2:
             raise SceneError(f"{finger} needs two collision boxes (pad, lip), found {len(boxes)}")
         for geom, part in zip(boxes, ("pad", "lip"), strict=True):
@@ -147,10 +157,15 @@ def _configure_robot(spec: mujoco.MjSpec, visual: mujoco.MjsDefault,
             geom.solimp = list(GRASP_SOLIMP)
     gripper = spec.body("gripper_link")
     gripper.add_site(name="tcp", pos=[0, 0, 0], size=[0.01, 0, 0], rgba=[1, 0, 0, 0.5], group=4)
-    gripper.add_site(name="gripper", pos=[0.15, 0, 0], size=[0.01, 0, 0], rgba=[0, 1, 0, 0.5],
-                     group=4)
-    gripper.add_camera(name="gripper", pos=[-0.08, 0.0, 0.16],
-                       xyaxes=list(_look_at([-0.08, 0.0, 0.16], [0.35, 0.0, 0.0])), fovy=70)
+    gripper.add_site(
+        name="gripper", pos=[0.15, 0, 0], size=[0.01, 0, 0], rgba=[0, 1, 0, 0.5], group=4
+    )
+    gripper.add_camera(
+        name="gripper",
+        pos=[-0.08, 0.0, 0.16],
+        xyaxes=list(_look_at([-0.08, 0.0, 0.16], [0.35, 0.0, 0.0])),
+        fovy=70,
+    )
     for a, b in _EXCLUDES:
         spec.add_exclude(bodyname1=a, bodyname2=b)
     spec.add_equality(
@@ -208,36 +223,67 @@ def _add_actuators(spec: mujoco.MjSpec, inertia: npt.NDArray[np.float64]) -> Non
 
 def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
     """Floor, sky, lights and the two fixed cameras."""
-    spec.add_texture(name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.55, 0.68, 0.82],
-                     rgb2=[0.1, 0.12, 0.16], width=512, height=3072)
-    spec.add_texture(name="floor", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.34, 0.35, 0.37],
-                     rgb2=[0.28, 0.29, 0.31], mark=mujoco.mjtMark.mjMARK_EDGE,
-                     markrgb=[0.45, 0.45, 0.47], width=512, height=512)
+    spec.add_texture(
+        name="skybox",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.55, 0.68, 0.82],
+        rgb2=[0.1, 0.12, 0.16],
+        width=512,
+        height=3072,
+    )
+    spec.add_texture(
+        name="floor",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.34, 0.35, 0.37],
+        rgb2=[0.28, 0.29, 0.31],
+        mark=mujoco.mjtMark.mjMARK_EDGE,
+        markrgb=[0.45, 0.45, 0.47],
+        width=512,
+        height=512,
+    )
     floor_mat = spec.add_material(name="floor", texrepeat=[8, 8], reflectance=0.0)
     floor_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor"
     world = spec.worldbody
-    floor = world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
-                           material="floor")
+    floor = world.add_geom(
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
+    )
     floor.classname = static
-    world.add_light(name="sun", pos=[0.5, 1.0, 6.0], dir=[-0.1, -0.2, -1.0],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, diffuse=[0.75, 0.75, 0.72],
-                    specular=[0.2, 0.2, 0.2], castshadow=True)
-    world.add_light(name="fill", pos=[-3.0, -3.0, 4.0], dir=[0.5, 0.5, -0.6],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, diffuse=[0.3, 0.3, 0.32],
-                    castshadow=False)
+    world.add_light(
+        name="sun",
+        pos=[0.5, 1.0, 6.0],
+        dir=[-0.1, -0.2, -1.0],
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        diffuse=[0.75, 0.75, 0.72],
+        specular=[0.2, 0.2, 0.2],
+        castshadow=True,
+    )
+    world.add_light(
+        name="fill",
+        pos=[-3.0, -3.0, 4.0],
+        dir=[0.5, 0.5, -0.6],
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        diffuse=[0.3, 0.3, 0.32],
+        castshadow=False,
+    )
     overview_pos, overview_at = (-2.2, -2.9, 3.4), (1.1, 0.8, 1.1)
-    world.add_camera(name="overview", pos=list(overview_pos),
-                     xyaxes=list(_look_at(overview_pos, overview_at)), fovy=58)
+    world.add_camera(
+        name="overview",
+        pos=list(overview_pos),
+        xyaxes=list(_look_at(overview_pos, overview_at)),
+        fovy=58,
+    )
     shelf_at = (cell.shelf.x_front + 0.1, 0.0, 1.6)
     shelf_pos = (0.3, -1.9, 2.4)
-    world.add_camera(name="shelf", pos=list(shelf_pos),
-                     xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=60)
+    world.add_camera(
+        name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=60
+    )
     bin_x, bin_y = cell.bin.center_xy
     bin_pos = (bin_x - 1.7, bin_y + 1.6, 2.6)
-    world.add_camera(name="bin", pos=list(bin_pos),
-                     xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.3))), fovy=50)
+    world.add_camera(
+        name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.3))), fovy=50
+    )
 
 
 def _add_shelf(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
@@ -247,18 +293,42 @@ def _add_shelf(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
     cx, hx = s.x_front + s.depth / 2.0, s.depth / 2.0
     half_t = s.board_thickness / 2.0
     for row, top in enumerate(s.board_tops, start=1):
-        _box(body, f"shelf_board_{row}", (cx, 0, top - half_t), (hx, s.half_width, half_t),
-             SHELF_RGBA, static)
-    _box(body, "shelf_top", (cx, 0, s.height - half_t), (hx, s.half_width, half_t), SHELF_RGBA,
-         static)
-    _box(body, "shelf_back", (s.x_front + s.depth - 0.01, 0, s.height / 2.0),
-         (0.01, s.half_width, s.height / 2.0), SHELF_RGBA, static)
+        _box(
+            body,
+            f"shelf_board_{row}",
+            (cx, 0, top - half_t),
+            (hx, s.half_width, half_t),
+            SHELF_RGBA,
+            static,
+        )
+    _box(
+        body,
+        "shelf_top",
+        (cx, 0, s.height - half_t),
+        (hx, s.half_width, half_t),
+        SHELF_RGBA,
+        static,
+    )
+    _box(
+        body,
+        "shelf_back",
+        (s.x_front + s.depth - 0.01, 0, s.height / 2.0),
+        (0.01, s.half_width, s.height / 2.0),
+        SHELF_RGBA,
+        static,
+    )
     for side in (-1, 1):
         for kind, (inner, outer) in (("divider", s.divider_y), ("wall", s.post_y)):
             y = side * (inner + outer) / 2.0
             name = f"shelf_{kind}_{'left' if side > 0 else 'right'}"
-            _box(body, name, (cx, y, s.height / 2.0), (hx, (outer - inner) / 2.0, s.height / 2.0),
-                 SHELF_RGBA, static)
+            _box(
+                body,
+                name,
+                (cx, y, s.height / 2.0),
+                (hx, (outer - inner) / 2.0, s.height / 2.0),
+                SHELF_RGBA,
+                static,
+            )
 
 
 def _add_bin(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
@@ -267,8 +337,14 @@ def _add_bin(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -
     bx, by = b.center_xy
     half, w = b.outer_size / 2.0, b.wall
     body = spec.worldbody.add_body(name="bin")
-    _box(body, "bin_floor", (bx, by, b.floor_top / 2.0), (half, half, b.floor_top / 2.0),
-         BIN_RGBA, static)
+    _box(
+        body,
+        "bin_floor",
+        (bx, by, b.floor_top / 2.0),
+        (half, half, b.floor_top / 2.0),
+        BIN_RGBA,
+        static,
+    )
     h = b.height / 2.0
     _box(body, "bin_wall_px", (bx + half - w / 2, by, h), (w / 2, half, h), BIN_RGBA, static)
     _box(body, "bin_wall_nx", (bx - half + w / 2, by, h), (w / 2, half, h), BIN_RGBA, static)
@@ -297,8 +373,11 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
         )
 
 
-def build_spec(cell: CellConfig | None = None, urdf_path: Path | str = URDF_PATH,
-               mesh_dir: Path | str = MESH_DIR) -> mujoco.MjSpec:
+def build_spec(
+    cell: CellConfig | None = None,
+    urdf_path: Path | str = URDF_PATH,
+    mesh_dir: Path | str = MESH_DIR,
+) -> mujoco.MjSpec:
     """Build the whole cell as an :class:`mujoco.MjSpec`.
 
     Args:
@@ -515,14 +594,16 @@ class CellHandles:
                 oid(mujoco.mjtObj.mjOBJ_GEOM, "left_finger_lip"),
             ),
             robot_geoms=frozenset(
-                g for g in range(model.ngeom)
+                g
+                for g in range(model.ngeom)
                 if gb[g] in robot_bodies and model.geom_contype[g] != 0
             ),
             shelf_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == shelf),
             bin_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == bin_),
             target_bodies=np.array(targets),
-            target_geoms=np.array([oid(mujoco.mjtObj.mjOBJ_GEOM, target_name(i))
-                                   for i in range(len(targets))]),
+            target_geoms=np.array(
+                [oid(mujoco.mjtObj.mjOBJ_GEOM, target_name(i)) for i in range(len(targets))]
+            ),
             target_qpos=np.array([model.jnt_qposadr[j] for j in target_joints]),
             target_dof=np.array([model.jnt_dofadr[j] for j in target_joints]),
         )

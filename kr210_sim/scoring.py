@@ -7,7 +7,7 @@ simulation), so every failure reason can be tested on constructed situations.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 import numpy.typing as npt
@@ -15,7 +15,7 @@ import numpy.typing as npt
 from kr210_sim.config import BinSpec
 
 
-class Outcome(str, Enum):
+class Outcome(StrEnum):
     """Result of a cycle: success or the reason it failed."""
 
     SUCCESS = "success"

@@ -142,8 +142,13 @@ class Planner:
         """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
         T_start = kinematics.forward(q_start)
         traj = plan_cartesian_line(
-            T_start, T_goal, q_start, kinematics.nearest, self.limits,
-            speed=self.motion.lin_speed, step=self.motion.lin_step,
+            T_start,
+            T_goal,
+            q_start,
+            kinematics.nearest,
+            self.limits,
+            speed=self.motion.lin_speed,
+            step=self.motion.lin_step,
         )
         return Move(phase, "lin", traj)
 
@@ -154,8 +159,9 @@ class Planner:
         except UnreachablePoseError as exc:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
 
-    def plan_grasp(self, q_start: FloatArray, target_position: npt.ArrayLike,
-                   target_radius: float) -> GraspPlan:
+    def plan_grasp(
+        self, q_start: FloatArray, target_position: npt.ArrayLike, target_radius: float
+    ) -> GraspPlan:
         """Plan ready -> standoff -> grasp -> lift -> retreat for a target.
 
         Args:
@@ -190,12 +196,12 @@ class Planner:
         xy = np.asarray(drop_xy, dtype=np.float64)
         yaw = math.atan2(xy[1], xy[0])
         depth = grasp_depth(self.robot, target_radius)
-        p = np.array([xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw),
-                      self.motion.drop_height])
+        p = np.array(
+            [xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw), self.motion.drop_height]
+        )
         return gripper_pose(p, yaw)
 
-    def plan_carry(self, q_start: FloatArray, drop_xy: npt.ArrayLike,
-                   target_radius: float) -> Move:
+    def plan_carry(self, q_start: FloatArray, drop_xy: npt.ArrayLike, target_radius: float) -> Move:
         """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]."""
         q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop")
         return self.ptp("carry", q_start, q_drop)

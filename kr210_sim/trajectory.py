@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import ruckig  # type: ignore[import-not-found]
+import ruckig
 
 from kr210_sim.config import MotionConfig
 from kr210_sim.errors import PlanningError
@@ -68,8 +68,13 @@ class JointLimits:
     def from_robot(cls, robot: RobotDescription, motion: MotionConfig) -> JointLimits:
         """URDF position and velocity limits; acceleration and jerk from ``motion``'s scales."""
         a = motion.accel_scale * robot.qd_max
-        return cls(robot.q_lower.copy(), robot.q_upper.copy(), robot.qd_max.copy(), a,
-                   motion.jerk_scale * a)
+        return cls(
+            robot.q_lower.copy(),
+            robot.q_upper.copy(),
+            robot.qd_max.copy(),
+            a,
+            motion.jerk_scale * a,
+        )
 
     def check_position(self, q: FloatArray, what: str) -> None:
         """Raise PlanningError when ``q`` [rad] (shape (..., 6)) leaves the position limits."""
@@ -77,8 +82,11 @@ class JointLimits:
         above = q > self.upper + LIMIT_TOL
         if np.any(below | above):
             j = int(np.argwhere(below | above)[0][-1])
-            v = float(np.asarray(q).reshape(-1, 6)[:, j].min() if below.any()
-                      else np.asarray(q).reshape(-1, 6)[:, j].max())
+            v = float(
+                np.asarray(q).reshape(-1, 6)[:, j].min()
+                if below.any()
+                else np.asarray(q).reshape(-1, 6)[:, j].max()
+            )
             raise PlanningError(
                 f"{what}: joint_{j + 1} reaches {math.degrees(v):.1f} deg, outside its limits "
                 f"[{math.degrees(self.lower[j]):.0f}, {math.degrees(self.upper[j]):.0f}] deg"
@@ -202,8 +210,14 @@ def _rotation(rotvec: FloatArray) -> FloatArray:
 class LineTrajectory(Trajectory):
     """A straight-line Cartesian move: q(s) on a cubic Hermite spline, s(t) from ruckig."""
 
-    def __init__(self, q_knots: FloatArray, length: float, profile: ruckig.Trajectory | None,
-                 T_start: FloatArray, T_goal: FloatArray) -> None:
+    def __init__(
+        self,
+        q_knots: FloatArray,
+        length: float,
+        profile: ruckig.Trajectory | None,
+        T_start: FloatArray,
+        T_goal: FloatArray,
+    ) -> None:
         self.q_knots = q_knots
         self.length = length
         self._n = len(q_knots) - 1
@@ -228,12 +242,21 @@ class LineTrajectory(Trajectory):
         p0, p1 = self.q_knots[i], self.q_knots[i + 1]
         m0, m1 = self._m[i] * h, self._m[i + 1] * h
         x2, x3 = x * x, x * x * x
-        q = ((2 * x3 - 3 * x2 + 1) * p0 + (x3 - 2 * x2 + x) * m0
-             + (-2 * x3 + 3 * x2) * p1 + (x3 - x2) * m1)
-        dq = ((6 * x2 - 6 * x) * p0 + (3 * x2 - 4 * x + 1) * m0
-              + (-6 * x2 + 6 * x) * p1 + (3 * x2 - 2 * x) * m1) / h
-        ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1
-               + (6 * x - 2) * m1) / (h * h)
+        q = (
+            (2 * x3 - 3 * x2 + 1) * p0
+            + (x3 - 2 * x2 + x) * m0
+            + (-2 * x3 + 3 * x2) * p1
+            + (x3 - x2) * m1
+        )
+        dq = (
+            (6 * x2 - 6 * x) * p0
+            + (3 * x2 - 4 * x + 1) * m0
+            + (-6 * x2 + 6 * x) * p1
+            + (3 * x2 - 2 * x) * m1
+        ) / h
+        ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1 + (6 * x - 2) * m1) / (
+            h * h
+        )
         return q, dq, ddq
 
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -248,9 +271,15 @@ class LineTrajectory(Trajectory):
         return q, dq * sd, ddq * sd * sd + dq * sdd
 
 
-def plan_cartesian_line(T_start: npt.ArrayLike, T_goal: npt.ArrayLike, q_start: npt.ArrayLike,
-                        ik: IkFunction, limits: JointLimits, speed: float,
-                        step: float = 0.005) -> LineTrajectory:
+def plan_cartesian_line(
+    T_start: npt.ArrayLike,
+    T_goal: npt.ArrayLike,
+    q_start: npt.ArrayLike,
+    ik: IkFunction,
+    limits: JointLimits,
+    speed: float,
+    step: float = 0.005,
+) -> LineTrajectory:
     """A rest-to-rest move along the straight line from ``T_start`` to ``T_goal``.
 
     Args:

@@ -33,8 +33,9 @@ def test_slots_inside_compartments() -> None:
     for number in range(1, 10):
         y = cell.slot(number)[1]
         r = cell.target.radius
-        assert abs(y) + r < inner or (abs(y) - r > cell.shelf.divider_y[1]
-                                       and abs(y) + r < cell.shelf.post_y[0])
+        assert abs(y) + r < inner or (
+            abs(y) - r > cell.shelf.divider_y[1] and abs(y) + r < cell.shelf.post_y[0]
+        )
 
 
 @pytest.mark.parametrize("bad", [0, 10, -1])

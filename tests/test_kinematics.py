@@ -64,7 +64,8 @@ def test_round_trip_every_solution_and_original_found() -> None:
     assert valid.any(axis=1).all()
     back = kin.forward(np.where(valid[..., None], sols, 0.0).reshape(-1, 6)).reshape(-1, 8, 4, 4)
     pos_err = np.linalg.norm(back[..., :3, 3] - T[:, None, :3, 3], axis=-1)[valid]
-    ang_err = rot_angle(back[..., :3, :3], np.broadcast_to(T[:, None, :3, :3], back[..., :3, :3].shape))[valid]
+    target_R = np.broadcast_to(T[:, None, :3, :3], back[..., :3, :3].shape)
+    ang_err = rot_angle(back[..., :3, :3], target_R)[valid]
     assert pos_err.max() <= 1e-9
     assert ang_err.max() <= 1e-7  # arccos near 1 loses precision: 1e-7 rad = |R - R'| ~ 1e-14
     rot_dev = np.abs(back[..., :3, :3] - T[:, None, :3, :3]).max(axis=(-2, -1))[valid]

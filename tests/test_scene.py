@@ -56,8 +56,11 @@ def test_mujoco_pose_matches_forward_kinematics(model: mujoco.MjModel) -> None:
     for q, T in zip(qs, ours, strict=True):
         data.qpos[h.arm_qpos] = q
         mujoco.mj_kinematics(model, data)
-        worst = max(worst, float(np.abs(data.xpos[h.gripper_body] - T[:3, 3]).max()),
-                    float(np.abs(data.xmat[h.gripper_body].reshape(3, 3) - T[:3, :3]).max()))
+        worst = max(
+            worst,
+            float(np.abs(data.xpos[h.gripper_body] - T[:3, 3]).max()),
+            float(np.abs(data.xmat[h.gripper_body].reshape(3, 3) - T[:3, :3]).max()),
+        )
     assert worst < 1e-9
 
 

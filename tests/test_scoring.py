@@ -13,9 +13,15 @@ IN_BIN = np.array([0.05, 2.5, 0.1])
 
 
 def obs(**kw: object) -> CycleObservation:
-    base: dict[str, object] = dict(planned=True, grasp_confirmed=True, held_until_release=True,
-                                   released=True, robot_env_contacts=0,
-                                   target_position=IN_BIN, target_speed=0.0)
+    base: dict[str, object] = dict(
+        planned=True,
+        grasp_confirmed=True,
+        held_until_release=True,
+        released=True,
+        robot_env_contacts=0,
+        target_position=IN_BIN,
+        target_speed=0.0,
+    )
     base.update(kw)
     return CycleObservation(**base)  # type: ignore[arg-type]
 
@@ -29,10 +35,14 @@ def test_success() -> None:
     [
         ({"planned": False, "grasp_confirmed": False}, Outcome.UNREACHABLE),
         ({"robot_env_contacts": 3}, Outcome.COLLISION),
-        ({"grasp_confirmed": False, "target_position": np.array([2.6, 0, 0.914])},
-         Outcome.GRASP_MISSED),
-        ({"held_until_release": False, "target_position": np.array([1.0, 1.0, 0.05])},
-         Outcome.DROPPED_IN_TRANSIT),
+        (
+            {"grasp_confirmed": False, "target_position": np.array([2.6, 0, 0.914])},
+            Outcome.GRASP_MISSED,
+        ),
+        (
+            {"held_until_release": False, "target_position": np.array([1.0, 1.0, 0.05])},
+            Outcome.DROPPED_IN_TRANSIT,
+        ),
         ({"released": False}, Outcome.DROPPED_IN_TRANSIT),
         ({"target_position": np.array([0.7, 2.5, 0.05])}, Outcome.MISSED_BIN),
         ({"target_position": np.array([0.0, 2.5, 1.2])}, Outcome.MISSED_BIN),  # on the rim

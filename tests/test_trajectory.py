@@ -50,7 +50,7 @@ def test_ptp_outside_limits_raises() -> None:
     q = np.zeros(6)
     bad = q.copy()
     bad[1] = np.radians(100.0)  # joint_2 upper limit is 85 deg
-    with pytest.raises(PlanningError, match="joint_2 reaches 100.0 deg"):
+    with pytest.raises(PlanningError, match=r"joint_2 reaches 100\.0 deg"):
         plan_ptp(q, bad, LIMITS)
 
 

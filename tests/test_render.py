@@ -1,0 +1,34 @@
+"""Offscreen stills (needs an OpenGL backend: EGL on headless machines)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from kr210_sim.errors import ConfigError
+from kr210_sim.render import make_renderer, snapshot
+from kr210_sim.scene import load_model
+
+pytestmark = pytest.mark.render
+
+
+@pytest.mark.parametrize("camera", ["overview", "shelf", "bin", "gripper"])
+def test_snapshot_each_camera(tmp_path: Path, camera: str) -> None:
+    path = snapshot(tmp_path / f"{camera}.png", camera=camera, width=320, height=240)
+    img = iio.imread(path)
+    assert img.shape == (240, 320, 3)
+    assert img.std() > 10  # not blank
+    assert len(np.unique(img.reshape(-1, 3), axis=0)) > 100
+
+
+def test_unknown_camera_lists_the_names(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no camera 'nope'; cameras: overview, shelf, bin"):
+        snapshot(tmp_path / "x.png", camera="nope")
+
+
+def test_frame_larger_than_offscreen_buffer() -> None:
+    with pytest.raises(ConfigError, match="exceeds the scene's offscreen buffer"):
+        make_renderer(load_model(), 4000, 3000)

@@ -1,0 +1,45 @@
+"""Reports: atomic writes, summaries, and the wall-time filter."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from kr210_sim.errors import ConfigError
+from kr210_sim.report import strip_wall, summarise, write_json_atomic
+
+
+def test_atomic_write_replaces_whole_file(tmp_path: Path) -> None:
+    path = tmp_path / "r.json"
+    write_json_atomic(path, {"a": 1})
+    write_json_atomic(path, {"b": [1, 2]})
+    assert json.loads(path.read_text()) == {"b": [1, 2]}
+    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
+
+
+def test_failed_write_keeps_the_old_report(tmp_path: Path) -> None:
+    path = tmp_path / "r.json"
+    write_json_atomic(path, {"a": 1})
+    with pytest.raises(ValueError):
+        write_json_atomic(path, {"a": float("nan")})  # not valid JSON
+    assert json.loads(path.read_text()) == {"a": 1}
+    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
+
+
+def test_unwritable_folder(tmp_path: Path) -> None:
+    f = tmp_path / "f"
+    f.write_text("")
+    with pytest.raises(ConfigError, match="cannot create the folder"):
+        write_json_atomic(f / "x" / "r.json", {})
+
+
+def test_empty_summary() -> None:
+    s = summarise([], wall_time=1.0)
+    assert (s["cycles"], s["successes"], s["success_rate"]) == (0, 0, 0.0)
+
+
+def test_strip_wall() -> None:
+    report = {"summary": {"wall_time_s": 2.0, "cycles": 1}, "cycles": [{"wall_time": 1.0, "x": 2}]}
+    assert strip_wall(report) == {"summary": {"cycles": 1}, "cycles": [{"x": 2}]}

@@ -1,0 +1,96 @@
+"""End-to-end cycles in the real cell, and every failure reason on constructed situations."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from kr210_sim.config import CellConfig, MotionConfig, TargetSpec
+from kr210_sim.report import build_report, strip_wall
+from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.scoring import in_bin
+
+
+@pytest.mark.slow
+def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
+    runner = Runner(RunConfig(cycles=3, seed=1))
+    for i, slot in enumerate((1, 5, 9), start=1):  # bottom, middle, top row
+        r = runner.run_cycle(i, slot)
+        assert r.success, r.detail
+        assert r.reason is None
+        assert r.env_contact_ticks == 0
+        assert r.creep_mm < 2.0
+        assert max(r.max_tracking_error_deg) < 0.5
+        assert r.cycle_time < 6.5
+        assert r.grasp_attempts == 1
+        assert in_bin(r.target_final, runner.config.cell.bin)
+    # all three cylinders are in the bin, and each went to its own drop spot
+    finals = np.array([r.target_final for r in runner.results])
+    assert len({tuple(np.round(f[:2], 1)) for f in finals}) == 3
+
+
+def _one(config: RunConfig, slot: int = 5):  # type: ignore[no-untyped-def]
+    runner = Runner(config)
+    return runner, runner.run_cycle(1, slot)
+
+
+def test_unreachable_target_is_scored_and_the_run_goes_on() -> None:
+    slots = list(CellConfig().slots)
+    slots[4] = (4.5, 0.0, 1.681)  # far beyond the arm's reach: falls to the floor there
+    runner, r = _one(RunConfig(cycles=2, cell=CellConfig(slots=tuple(slots))))
+    assert not r.success and r.reason == "unreachable"
+    assert "out of reach" in r.detail
+    r2 = runner.run_cycle(2, 1)
+    assert r2.success
+
+
+def test_slippery_heavy_target_is_dropped_in_transit() -> None:
+    target = TargetSpec(friction=0.02, mass=0.5)
+    _, r = _one(RunConfig(cycles=1, cell=CellConfig(target=target)))
+    assert r.reason == "dropped_in_transit", r.detail
+
+
+def test_release_outside_the_bin_misses_it() -> None:
+    motion = MotionConfig(drop_spots=((0.9, 0.0),))
+    _, r = _one(RunConfig(cycles=1, motion=motion))
+    assert r.reason == "missed_bin", r.detail
+    assert "outside the bin" in r.detail
+
+
+def test_carrying_through_the_bin_wall_is_a_collision() -> None:
+    motion = MotionConfig(drop_height=0.85)
+    _, r = _one(RunConfig(cycles=1, motion=motion))
+    assert r.reason == "collision", r.detail
+    assert r.env_contact_ticks > 0
+    assert any("bin" in a or "bin" in b for a, b in r.contact_pairs)
+
+
+def test_wrong_size_belief_misses_the_grasp() -> None:
+    class Narrow(Runner):
+        """Plans for a 0.05 m radius, but the cylinder in the cell is 0.03 m."""
+
+        def _spawn(self, sample):  # type: ignore[no-untyped-def]
+            k = super()._spawn(sample)
+            g = int(self.cell.handles.target_geoms[k])
+            self.model.geom_size[g, 0] = 0.03
+            return k
+
+    runner = Narrow(RunConfig(cycles=1, grasp_attempts=2))
+    r = runner.run_cycle(1, 5)
+    assert r.reason == "grasp_missed"
+    assert r.grasp_attempts == 2
+    assert "grip not confirmed" in r.detail
+
+
+def test_same_seed_same_report() -> None:
+    reports = []
+    for _ in range(2):
+        runner = Runner(RunConfig(cycles=2, seed=7))
+        for i in range(1, 3):
+            runner.run_cycle(i, runner.slot_for_cycle())
+        reports.append(
+            json.dumps(strip_wall(build_report(runner.config, runner.results, 1.0)), sort_keys=True)
+        )
+    assert reports[0] == reports[1]
