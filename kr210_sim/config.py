@@ -182,7 +182,7 @@ class MotionConfig:
     accel_scale: float = 3.0
     jerk_scale: float = 12.0
     lin_speed: float = 1.0
-    lin_step: float = 0.005
+    lin_step: float = 0.01
     standoff: float = 0.5
     grasp_dz: float = 0.0
     lift: float = 0.04

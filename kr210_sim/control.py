@@ -38,6 +38,8 @@ class JointTrajectory(Protocol):
 
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]: ...
 
+    def sample_many(self, ts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]: ...
+
 
 @dataclass(frozen=True, slots=True)
 class _Hold:
@@ -49,6 +51,11 @@ class _Hold:
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         z = np.zeros_like(self.q)
         return self.q, z, z
+
+    def sample_many(self, ts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        q = np.broadcast_to(self.q, (len(ts), 6)).copy()
+        z = np.zeros_like(q)
+        return q, z, z.copy()
 
 
 def hold(q: npt.ArrayLike, duration: float) -> JointTrajectory:
@@ -64,38 +71,46 @@ StepHook = Callable[["Cell"], None]
 class Recording:
     """Per-tick samples of one cycle, appended segment by segment.
 
+    Each segment holds arrays with one row per physics tick: ``t`` simulated time [s],
+    ``q_des`` / ``qd_des`` commanded joint positions [rad] / velocities [rad/s], ``q`` / ``qd``
+    measured ones, ``target_in_gripper`` the active target's centre in the gripper_link frame
+    [m], ``env_contact`` a robot-shelf/bin contact flag.
+
     Attributes:
-        t: Simulated time of each sample [s].
-        q_des: Commanded joint positions [rad], (n, 6).
-        qd_des: Commanded joint velocities [rad/s], (n, 6).
-        q: Measured joint positions [rad], (n, 6).
-        qd: Measured joint velocities [rad/s], (n, 6).
-        target_in_gripper: Target centre in the gripper_link frame [m], (n, 3).
-        env_contact: Robot-shelf/bin contact flag per tick.
-        phase: Phase name per segment: list of (start index, name).
+        segments: The recorded segments, in order.
+        phase: (first sample index, phase name) of each segment.
+        contact_pairs: Names of robot/environment geom pairs that touched.
     """
 
-    t: list[float] = field(default_factory=list)
-    q_des: list[FloatArray] = field(default_factory=list)
-    qd_des: list[FloatArray] = field(default_factory=list)
-    q: list[FloatArray] = field(default_factory=list)
-    qd: list[FloatArray] = field(default_factory=list)
-    target_in_gripper: list[FloatArray] = field(default_factory=list)
-    env_contact: list[bool] = field(default_factory=list)
+    segments: list[dict[str, FloatArray]] = field(default_factory=list)
     phase: list[tuple[int, str]] = field(default_factory=list)
     contact_pairs: set[tuple[str, str]] = field(default_factory=set)
+    _length: int = 0
+
+    def __len__(self) -> int:
+        return self._length
+
+    def append(self, phase: str, segment: dict[str, FloatArray]) -> None:
+        """Add one segment's samples under ``phase``."""
+        self.phase.append((self._length, phase))
+        self.segments.append(segment)
+        self._length += len(segment["t"])
 
     def arrays(self) -> dict[str, FloatArray]:
-        """The samples as numpy arrays keyed by field name."""
-        return {
-            "t": np.asarray(self.t),
-            "q_des": np.asarray(self.q_des).reshape(-1, 6),
-            "qd_des": np.asarray(self.qd_des).reshape(-1, 6),
-            "q": np.asarray(self.q).reshape(-1, 6),
-            "qd": np.asarray(self.qd).reshape(-1, 6),
-            "target_in_gripper": np.asarray(self.target_in_gripper).reshape(-1, 3),
-            "env_contact": np.asarray(self.env_contact, dtype=bool),
-        }
+        """All samples as arrays keyed by field name (``t``, ``q_des``, ``qd_des``, ``q``,
+        ``qd``, ``target_in_gripper``, ``env_contact``)."""
+        keys = ("t", "q_des", "qd_des", "q", "qd", "target_in_gripper", "env_contact")
+        if not self.segments:
+            shapes = {"t": (0,), "target_in_gripper": (0, 3), "env_contact": (0,)}
+            return {k: np.zeros(shapes.get(k, (0, 6))) for k in keys}
+        return {k: np.concatenate([seg[k] for seg in self.segments]) for k in keys}
+
+
+def _as_slice(index: npt.NDArray[np.int_]) -> slice | npt.NDArray[np.int_]:
+    """``index`` as a slice when it is a contiguous ascending run, else unchanged."""
+    if len(index) and np.all(np.diff(index) == 1):
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
 
 
 class Cell:
@@ -120,6 +135,10 @@ class Cell:
             ]
         )
         self._m_diag = (model.M_rowadr + model.M_rownnz - 1)[h.arm_dof]
+        # Slices where the indices are contiguous (much cheaper than fancy indexing per tick).
+        self._arm_act = _as_slice(h.arm_act)
+        self._arm_q = _as_slice(h.arm_qpos)
+        self._arm_v = _as_slice(h.arm_dof)
         self._is_robot = np.zeros(model.ngeom, dtype=bool)
         self._is_robot[list(h.robot_geoms)] = True
         self._is_env = np.zeros(model.ngeom, dtype=bool)
@@ -254,46 +273,64 @@ class Cell:
         m, d, h = self.model, self.data, self.handles
         self.phase = phase
         dt = m.opt.timestep
-        n_steps = int(np.ceil((traj.duration + extra_time) / dt - 1e-9))
-        if recording is not None:
-            recording.phase.append((len(recording.t), phase))
-        grip_act = h.grip_act
-        arm_qpos = h.arm_qpos
-        arm_dof = h.arm_dof
+        n = int(np.ceil((traj.duration + extra_time) / dt - 1e-9))
+        if n <= 0:
+            return 0.0
+        # Sample the whole segment up front (vectorised) and fold the feed-forward into the
+        # servo command: u = q + (kv qd + I qdd) / kp, with I read every tick.
+        ts = dt * np.arange(1, n + 1)
+        q_des, qd_des, qdd_des = traj.sample_many(ts)
+        u_base = q_des + qd_des * (self.kv / self.kp)
+        u_acc = qdd_des / self.kp
+        q_meas = np.empty((n, 6))
+        qd_meas = np.empty((n, 6))
+        g_pos = np.empty((n, 3))
+        g_mat = np.empty((n, 9))
+        t_pos = np.empty((n, 3))
+        contact = np.zeros(n, dtype=bool)
+        ctrl, qpos, qvel, xpos, xmat, M = d.ctrl, d.qpos, d.qvel, d.xpos, d.xmat, d.M
+        arm_act, arm_q, arm_v, m_diag = self._arm_act, self._arm_q, self._arm_v, self._m_diag
+        grip_act, grip = h.grip_act, self.grip_ctrl
         gb = h.gripper_body
-        tb = h.target_bodies[self.active_target]
-        is_robot, is_env = self._is_robot, self._is_env
+        tb = int(h.target_bodies[self.active_target])
+        sensors = d.sensordata
+        s_shelf, s_bin = h.env_contact_sensors
+        hooks = self.hooks
+        step = mujoco.mj_step
         t0 = d.time
-        steps = 0
-        for k in range(1, n_steps + 1):
-            q_des, qd_des, qdd_des = traj.sample(k * dt)
-            self._command(q_des, qd_des, qdd_des)
-            d.ctrl[grip_act] = self.grip_ctrl
-            mujoco.mj_step(m, d)
-            steps = k
-            for hook in self.hooks:
+        done = n
+        for k in range(n):
+            ctrl[arm_act] = u_base[k] + M[m_diag] * u_acc[k]
+            ctrl[grip_act] = grip
+            step(m, d)
+            # xpos/xmat are those of the step's start, for target and gripper alike.
+            q_meas[k] = qpos[arm_q]
+            qd_meas[k] = qvel[arm_v]
+            g_pos[k] = xpos[gb]
+            g_mat[k] = xmat[gb]
+            t_pos[k] = xpos[tb]
+            if sensors[s_shelf] or sensors[s_bin]:  # robot touches the shelf or the bin
+                contact[k] = True
+                if recording is not None:
+                    recording.contact_pairs.update(self.env_contact_pairs())
+            for hook in hooks:
                 hook(self)
-            if recording is not None:
-                recording.t.append(d.time)
-                recording.q_des.append(q_des)
-                recording.qd_des.append(qd_des)
-                recording.q.append(d.qpos[arm_qpos].copy())
-                recording.qd.append(d.qvel[arm_dof].copy())
-                # xpos/xmat are those of the step's start, for target and gripper alike.
-                R = d.xmat[gb].reshape(3, 3)
-                recording.target_in_gripper.append(R.T @ (d.xpos[tb] - d.xpos[gb]))
-                hit = False
-                if d.ncon:
-                    g = d.contact.geom[: d.ncon]
-                    hit = bool(
-                        np.any(
-                            (is_robot[g[:, 0]] & is_env[g[:, 1]])
-                            | (is_env[g[:, 0]] & is_robot[g[:, 1]])
-                        )
-                    )
-                    if hit:
-                        recording.contact_pairs.update(self.env_contact_pairs())
-                recording.env_contact.append(hit)
             if until is not None and until(self):
+                done = k + 1
                 break
-        return float(d.time - t0) if steps else 0.0
+        if recording is not None:
+            R = g_mat[:done].reshape(-1, 3, 3)
+            rel = np.einsum("nji,nj->ni", R, t_pos[:done] - g_pos[:done])
+            recording.append(
+                phase,
+                {
+                    "t": t0 + ts[:done],
+                    "q_des": q_des[:done],
+                    "qd_des": qd_des[:done],
+                    "q": q_meas[:done],
+                    "qd": qd_meas[:done],
+                    "target_in_gripper": rel,
+                    "env_contact": contact[:done],
+                },
+            )
+        return float(d.time - t0)

@@ -322,7 +322,7 @@ class Runner:
                     self._track(back, rec, phases)
                     continue
                 grip_ref = cell.target_in_gripper()
-                i_grip = len(rec.t)
+                i_grip = len(rec)
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
@@ -333,7 +333,7 @@ class Runner:
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
-                i_release = len(rec.t)
+                i_release = len(rec)
                 cell.open_gripper()
                 released = True
                 self._hold(cfg.motion.release_wait, rec, "release", phases)
@@ -357,7 +357,7 @@ class Runner:
             grasp_confirmed=confirmed,
             held_until_release=held,
             released=released,
-            robot_env_contacts=int(np.sum(rec.env_contact)),
+            robot_env_contacts=int(sum(int(seg["env_contact"].sum()) for seg in rec.segments)),
             target_position=cell.target_pose(k)[0],
             target_speed=cell.target_speed(k),
         )

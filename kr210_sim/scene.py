@@ -428,6 +428,18 @@ def build_spec(
     _add_shelf(spec, cell, static)
     _add_bin(spec, cell, static)
     _add_targets(spec, cell)
+    # Contact sensors: how many contacts the moving robot (link_1's subtree) has with the shelf
+    # and with the bin, read by the control loop every tick.
+    for env in ("shelf", "bin"):
+        spec.add_sensor(
+            name=f"robot_{env}_contacts",
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_XBODY,
+            objname="link_1",
+            reftype=mujoco.mjtObj.mjOBJ_BODY,
+            refname=env,
+            intprm=[1, 0, 1],  # data = "found" (count), no reduction
+        )
 
     try:
         model = spec.compile()
@@ -520,6 +532,7 @@ class CellHandles:
         target_geoms: Geom ids of the targets.
         target_qpos: qpos address of each target's free joint.
         target_dof: dof address of each target's free joint.
+        env_contact_sensors: sensordata addresses of the robot-shelf and robot-bin counts.
     """
 
     arm_qpos: npt.NDArray[np.int_]
@@ -538,6 +551,7 @@ class CellHandles:
     target_geoms: npt.NDArray[np.int_]
     target_qpos: npt.NDArray[np.int_]
     target_dof: npt.NDArray[np.int_]
+    env_contact_sensors: tuple[int, int]
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel) -> CellHandles:
@@ -606,4 +620,8 @@ class CellHandles:
             ),
             target_qpos=np.array([model.jnt_qposadr[j] for j in target_joints]),
             target_dof=np.array([model.jnt_dofadr[j] for j in target_joints]),
+            env_contact_sensors=tuple(  # type: ignore[arg-type]
+                int(model.sensor_adr[oid(mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")])
+                for env in ("shelf", "bin")
+            ),
         )

@@ -143,6 +143,19 @@ class PtpTrajectory(Trajectory):
         q, qd, qdd = self._profile.at_time(t)[:3]
         return np.array(q), np.array(qd), np.array(qdd)
 
+    def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        t = np.asarray(ts, dtype=np.float64)
+        out = np.empty((3, len(t), 6))
+        at = self._profile.at_time
+        inside = (t > 0.0) & (t < self.duration)
+        for i in np.flatnonzero(inside):
+            p, v, a = at(float(t[i]))[:3]
+            out[0, i], out[1, i], out[2, i] = p, v, a
+        out[:, ~inside] = 0.0
+        out[0, t <= 0.0] = self._start
+        out[0, t >= self.duration] = self._goal
+        return out[0], out[1], out[2]
+
 
 def plan_ptp(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: JointLimits) -> PtpTrajectory:
     """A phase-synchronised, jerk-limited joint move from rest at ``q_start`` to rest at ``q_goal``.
@@ -258,6 +271,47 @@ class LineTrajectory(Trajectory):
             h * h
         )
         return q, dq, ddq
+
+    def path_many(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`path` at many arc lengths ``s`` [m]: arrays of shape (n, 6)."""
+        if self._n == 0:
+            z = np.zeros((len(s), 6))
+            return np.broadcast_to(self.q_knots[0], z.shape).copy(), z, z.copy()
+        h = self._ds
+        u = np.clip(s / h, 0.0, float(self._n))
+        i = np.minimum(u.astype(int), self._n - 1)
+        x = (u - i)[:, None]
+        p0, p1 = self.q_knots[i], self.q_knots[i + 1]
+        m0, m1 = self._m[i] * h, self._m[i + 1] * h
+        x2, x3 = x * x, x * x * x
+        q = (
+            (2 * x3 - 3 * x2 + 1) * p0
+            + (x3 - 2 * x2 + x) * m0
+            + (-2 * x3 + 3 * x2) * p1
+            + (x3 - x2) * m1
+        )
+        dq = (
+            (6 * x2 - 6 * x) * p0
+            + (3 * x2 - 4 * x + 1) * m0
+            + (-6 * x2 + 6 * x) * p1
+            + (3 * x2 - 2 * x) * m1
+        ) / h
+        ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1 + (6 * x - 2) * m1) / (
+            h * h
+        )
+        return q, dq, ddq
+
+    def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        t = np.asarray(ts, dtype=np.float64)
+        prof = np.zeros((3, len(t)))
+        if self._profile is not None:
+            at = self._profile.at_time
+            for k in np.flatnonzero((t > 0.0) & (t < self.duration)):
+                (prof[0, k],), (prof[1, k],), (prof[2, k],) = at(float(t[k]))[:3]
+            prof[0, t >= self.duration] = self.length
+        s, sd, sdd = prof
+        q, dq, ddq = self.path_many(s)
+        return q, dq * sd[:, None], ddq * (sd * sd)[:, None] + dq * sdd[:, None]
 
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         if self._profile is None or t >= self.duration:
