@@ -179,7 +179,7 @@ class MotionConfig:
         release_wait: Wait after opening before the arm leaves the bin [s].
     """
 
-    accel_scale: float = 3.0
+    accel_scale: float = 4.0
     jerk_scale: float = 12.0
     lin_speed: float = 1.0
     lin_step: float = 0.01
@@ -192,7 +192,7 @@ class MotionConfig:
     )
     ready_q: tuple[float, float, float, float, float, float] = (0.8, -0.2, 0.2, 0.0, 0.0, 0.0)
     close_timeout: float = 1.0
-    release_wait: float = 0.35
+    release_wait: float = 0.25
 
     def __post_init__(self) -> None:
         for name in (
