@@ -199,7 +199,9 @@ def forward(q: npt.ArrayLike) -> FloatArray:
     """
     qa = _check_q(q)
     g = geometry()
-    single = qa.ndim == 1
+    if qa.ndim == 1:
+        return _forward_scalar(qa.tolist(), g)
+    single = False
     qb = qa.reshape(-1, 6)
     c = np.cos(qb)
     s = np.sin(qb)
@@ -242,6 +244,42 @@ def forward(q: npt.ArrayLike) -> FloatArray:
     return T[0] if single else T
 
 
+def _forward_scalar(q: list[float], g: Geometry) -> FloatArray:
+    """:func:`forward` for one joint state, in pure ``math`` (the same formulas)."""
+    q1, q2, q3, q4, q5, q6 = q
+    c1, s1 = math.cos(q1), math.sin(q1)
+    c4, s4 = math.cos(q4), math.sin(q4)
+    c5, s5 = math.cos(q5), math.sin(q5)
+    c6, s6 = math.cos(q6), math.sin(q6)
+    c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
+    # R3_6 = Rx(q4) Ry(q5) Rx(q6)
+    a00, a01, a02 = c5, s5 * s6, s5 * c6
+    a10, a11, a12 = s4 * s5, c4 * c6 - s4 * c5 * s6, -c4 * s6 - s4 * c5 * c6
+    a20, a21, a22 = -c4 * s5, s4 * c6 + c4 * c5 * s6, -s4 * s6 + c4 * c5 * c6
+    # R0_3 = Rz(q1) Ry(q23): rows (c1 c23, -s1, c1 s23), (s1 c23, c1, s1 s23), (-s23, 0, c23)
+    b00, b01, b02 = c1 * c23, -s1, c1 * s23
+    b10, b11, b12 = s1 * c23, c1, s1 * s23
+    r00 = b00 * a00 + b01 * a10 + b02 * a20
+    r01 = b00 * a01 + b01 * a11 + b02 * a21
+    r02 = b00 * a02 + b01 * a12 + b02 * a22
+    r10 = b10 * a00 + b11 * a10 + b12 * a20
+    r11 = b10 * a01 + b11 * a11 + b12 * a21
+    r12 = b10 * a02 + b11 * a12 + b12 * a22
+    r20 = -s23 * a00 + c23 * a20
+    r21 = -s23 * a01 + c23 * a21
+    r22 = -s23 * a02 + c23 * a22
+    radial = g.a1 + g.a2 * math.sin(q2) + g.a3x * c23 + g.a3z * s23
+    z = g.d0 + g.h1 + g.a2 * math.cos(q2) - g.a3x * s23 + g.a3z * c23
+    return np.array(
+        [
+            [r00, r01, r02, radial * c1 + g.dg * r00],
+            [r10, r11, r12, radial * s1 + g.dg * r10],
+            [r20, r21, r22, z + g.dg * r20],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
 # --------------------------------------------------------------------------- inverse (batch)
 def _wrap(a: FloatArray) -> FloatArray:
     """Angles wrapped to (-pi, pi]."""
@@ -250,7 +288,7 @@ def _wrap(a: FloatArray) -> FloatArray:
 
 
 #: Poses per work chunk of the batch path: small enough that the temporaries stay in cache.
-CHUNK = 8192
+CHUNK = 16384
 _POOL: ThreadPoolExecutor | None = None
 
 
@@ -359,8 +397,9 @@ def _fit_limits(sol: FloatArray, g: Geometry) -> FloatArray:
     with np.errstate(invalid="ignore"):
         for j in range(6):
             v = sol[..., j]
-            v[v > math.pi] -= TWO_PI
-            v[v <= -math.pi] += TWO_PI
+            if j < 3:  # q4, q5, q6 come from atan2, already in (-pi, pi]
+                v[v > math.pi] -= TWO_PI
+                v[v <= -math.pi] += TWO_PI
             if lo[j] < -math.pi:
                 v[v > hi[j]] -= TWO_PI
             if hi[j] > math.pi:

@@ -88,7 +88,7 @@ def test_single_and_batch_paths_agree() -> None:
         b = batch[i][~np.isnan(batch[i]).any(axis=1)]
         assert single.shape == b.shape
         assert np.allclose(single, b, atol=1e-9)
-        assert np.allclose(kin.forward(qs[i]), T[i], atol=1e-12)
+        assert np.abs(kin.forward(qs[i]) - T[i]).max() < 1e-12  # scalar vs batch forward
 
 
 def test_nearest_returns_reference_when_it_is_a_solution() -> None:
