@@ -19,7 +19,7 @@ import mujoco
 import kr210_sim.control as control
 import kr210_sim.task as task
 import kr210_sim.trajectory as trajectory
-from kr210_sim.runner import Runner, RunConfig
+from kr210_sim.runner import RunConfig, Runner
 
 TIMES: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)
@@ -60,14 +60,8 @@ def main() -> None:
 
     # Instrumented run: where the time goes.
     task.kinematics.nearest = timed("IK (nearest)", task.kinematics.nearest)  # type: ignore[method-assign]
-    trajectory_planners = {
-        "plan_ptp": task.plan_ptp,
-        "plan_cartesian_line": task.plan_cartesian_line,
-    }
-    task.plan_ptp = timed("trajectory planning", trajectory_planners["plan_ptp"])  # type: ignore[assignment]
-    task.plan_cartesian_line = timed(  # type: ignore[assignment]
-        "trajectory planning", trajectory_planners["plan_cartesian_line"]
-    )
+    task.plan_ptp = timed("trajectory planning", task.plan_ptp)  # type: ignore[assignment]
+    task.plan_cartesian_line = timed("trajectory planning", task.plan_cartesian_line)  # type: ignore[assignment]
     for cls in (trajectory.PtpTrajectory, trajectory.LineTrajectory, control._Hold):
         cls.sample_many = timed("trajectory sampling", cls.sample_many)  # type: ignore[method-assign]
     control.mujoco.mj_step = timed("physics (mj_step)", mujoco.mj_step)  # type: ignore[attr-defined]
