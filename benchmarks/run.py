@@ -61,7 +61,8 @@ def main() -> None:
     # Instrumented run: where the time goes.
     task.kinematics.nearest = timed("IK (nearest)", task.kinematics.nearest)  # type: ignore[method-assign]
     task.plan_ptp = timed("trajectory planning", task.plan_ptp)  # type: ignore[assignment]
-    task.plan_cartesian_line = timed("trajectory planning", task.plan_cartesian_line)  # type: ignore[assignment]
+    line = task.plan_cartesian_line
+    task.plan_cartesian_line = timed("trajectory planning", line)  # type: ignore[assignment]
     for cls in (trajectory.PtpTrajectory, trajectory.LineTrajectory, control._Hold):
         cls.sample_many = timed("trajectory sampling", cls.sample_many)  # type: ignore[method-assign]
     control.mujoco.mj_step = timed("physics (mj_step)", mujoco.mj_step)  # type: ignore[attr-defined]
