@@ -10,11 +10,10 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import time
 from pathlib import Path
 
 from kr210_sim import __version__
-from kr210_sim.errors import Kr210SimError
+from kr210_sim.errors import ConfigError, Kr210SimError
 
 DEFAULT_REPORT = Path("reports/run.json")
 
@@ -67,38 +66,52 @@ def _seed(text: str) -> int:
     return value
 
 
+def _multiple_of_16(text: str) -> int:
+    value = _positive_int(text)
+    if value % 16:
+        raise argparse.ArgumentTypeError(f"must be a multiple of 16, got {value}")
+    return value
+
+
+def _fps(text: str) -> int:
+    value = _positive_int(text)
+    if value > 120:
+        raise argparse.ArgumentTypeError(f"must be 1-120, got {value}")
+    return value
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.report import (
-        build_report,
-        check_writable,
-        cycle_line,
-        summary_table,
-        write_json_atomic,
-    )
-    from kr210_sim.runner import RunConfig, Runner
+    from kr210_sim.job import run_job
+    from kr210_sim.report import summary_table
+    from kr210_sim.runner import RunConfig
+    from kr210_sim.video import VideoSettings
 
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
-    report_path = check_writable(args.report)
-    runner = Runner(config)
-    wall0 = time.perf_counter()
-    interrupted = False
+    video = None
+    if args.video is not None:
+        video = VideoSettings(
+            path=args.video,
+            cameras=tuple(args.camera or ("overview",)),
+            width=args.width or 640,
+            height=args.height or 480,
+            fps=args.fps or 30,
+            quality=args.quality or "medium",
+        )
+    elif args.camera or args.width or args.height or args.fps or args.quality:
+        raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
+    job = run_job(config, args.report, video=video, plots_dir=args.plots)
     out = sys.stdout
-    try:
-        for i in range(1, config.cycles + 1):
-            slot = runner.slot_for_cycle()
-            result = runner.run_cycle(i, slot)
-            out.write(cycle_line(result, config.cycles) + "\n")
-            out.flush()
-    except KeyboardInterrupt:
-        interrupted = True
-        sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")
-    wall = time.perf_counter() - wall0
-    report = build_report(config, runner.results, wall, interrupted=interrupted)
-    write_json_atomic(report_path, report)
-    summary = report["summary"]
+    summary = job.report["summary"]
     out.write(summary_table(summary) + "\n")
-    out.write(f"  report: {report_path}\n")
-    if interrupted:
+    out.write(f"  report: {job.report_path}\n")
+    if video is not None and job.video_error is None:
+        out.write(f"  video: {video.path} ({job.video_frames} frames)\n")
+    if job.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in job.plot_paths)}\n")
+    if job.video_error is not None:
+        sys.stderr.write(f"kr210_sim: error: {job.video_error} (the report was written)\n")
+        return 2
+    if job.interrupted:
         return 130
     passed = summary["success_rate"] >= args.min_success
     out.write(
@@ -163,6 +176,23 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.8,
         help="pass bar: exit 1 below this success rate (0.8)",
     )
+    run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
+    run.add_argument(
+        "--camera",
+        action="append",
+        default=None,
+        help="camera for the video (overview); repeat to tile views side by side",
+    )
+    run.add_argument("--width", type=_multiple_of_16, default=None, help="video width [px] (640)")
+    run.add_argument("--height", type=_multiple_of_16, default=None, help="video height [px] (480)")
+    run.add_argument("--fps", type=_fps, default=None, help="video frames per simulated s (30)")
+    run.add_argument(
+        "--quality",
+        choices=("fast", "medium", "high"),
+        default=None,
+        help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
+    )
+    run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     run.set_defaults(func=_cmd_run)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")

@@ -58,7 +58,14 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:
+        import kr210_sim
+
         gl = os.environ.get("MUJOCO_GL", "unset")
+        if kr210_sim.GL_CHOSEN_LATE:
+            raise RenderError(
+                "mujoco was imported before kr210_sim, so it did not see MUJOCO_GL=egl: "
+                "import kr210_sim first, or set MUJOCO_GL=egl in the environment"
+            ) from exc
         raise RenderError(GL_HELP.format(gl=gl) + f" [{type(exc).__name__}: {exc}]") from exc
 
 

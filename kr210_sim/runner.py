@@ -218,6 +218,7 @@ class Runner:
             "cycle": 0,
             "cycles": config.cycles,
             "slot": 0,
+            "done": 0,
             "successes": 0,
             "phase": "idle",
         }
@@ -383,8 +384,8 @@ class Runner:
         )
         self.results.append(result)
         self.recordings.append(rec)
-        if result.success:
-            self.status["successes"] = int(self.status["successes"]) + 1  # type: ignore[call-overload]
+        self.status["done"] = len(self.results)
+        self.status["successes"] = sum(r.success for r in self.results)
         self._clear_shelf(k)
         return result
 
@@ -448,6 +449,11 @@ class Runner:
             phase_times={k: round(v, 6) for k, v in phases.items()},
             wall_time=time.perf_counter() - wall0,
         )
+
+    def idle(self, seconds: float, phase: str = "done") -> None:
+        """Hold the arm where it is for ``seconds`` [s] of simulated time (nothing recorded)."""
+        self.status["phase"] = phase
+        self.cell.track(hold(self.q_cmd, seconds), None, phase)
 
     def slot_for_cycle(self) -> int:
         """The slot of the next cycle: fixed, or drawn from the run's generator."""

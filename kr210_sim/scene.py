@@ -267,7 +267,7 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         diffuse=[0.3, 0.3, 0.32],
         castshadow=False,
     )
-    overview_pos, overview_at = (-2.2, -2.9, 3.4), (1.1, 0.8, 1.1)
+    overview_pos, overview_at = (-1.6, -2.5, 2.9), (1.2, 0.9, 1.0)
     world.add_camera(
         name="overview",
         pos=list(overview_pos),
@@ -280,9 +280,10 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=60
     )
     bin_x, bin_y = cell.bin.center_xy
-    bin_pos = (bin_x - 1.7, bin_y + 1.6, 2.6)
+    # Steep enough (about 70 deg down) to see the bin's floor over its 1 m walls.
+    bin_pos = (bin_x - 0.55, bin_y + 0.75, 3.3)
     world.add_camera(
-        name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.3))), fovy=50
+        name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.1))), fovy=45
     )
 
 

@@ -1,0 +1,132 @@
+"""The main job: run N cycles, print them, write the report, optionally film and plot the run.
+
+This is what ``python -m kr210_sim run`` does, as a function the CLI and tests call. Order of
+work: check every output path first (a usage error costs nothing), run the cycles (with the
+video recorder as a step hook), append the closing bin shot, then write the report, the plots
+and finish the video. The report is written even when the video fails or the run is
+interrupted (Ctrl-C): the failure is reported afterwards.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.report import build_report, check_writable, cycle_line, write_json_atomic
+from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
+
+
+@dataclass
+class JobResult:
+    """What a job produced.
+
+    Attributes:
+        report: The JSON-ready report.
+        report_path: Where it was written.
+        interrupted: True when Ctrl-C stopped the run early.
+        video_frames: Frames written to the video (0 without one).
+        video_error: The one-line reason the video failed, or None.
+        plot_paths: PNG plots written.
+        sim_time: Simulated time at the end of the job, closing shot included [s].
+    """
+
+    report: dict[str, Any]
+    report_path: Path
+    interrupted: bool = False
+    video_frames: int = 0
+    video_error: str | None = None
+    plot_paths: list[Path] = field(default_factory=list)
+    sim_time: float = 0.0
+
+
+def run_job(
+    config: RunConfig,
+    report_path: Path,
+    video: VideoSettings | None = None,
+    plots_dir: Path | None = None,
+    out: TextIO | None = None,
+    progress_stream: TextIO | None = None,
+) -> JobResult:
+    """Run ``config.cycles`` cycles and write the report (and video, and plots).
+
+    Args:
+        config: The run's settings.
+        report_path: JSON report path.
+        video: Video settings, or None for no video.
+        plots_dir: Folder for the PNG plots, or None.
+        out: Where the per-cycle lines go (stdout).
+        progress_stream: Where the video progress bar goes (stderr).
+
+    Returns:
+        The job's result; ``video_error`` is set (and the report still written) when the video
+        could not be made.
+
+    Raises:
+        ConfigError: When an output path cannot be written (checked before any cycle runs).
+        SceneError: When the scene cannot be loaded.
+    """
+    out = out or sys.stdout
+    report_path = check_writable(report_path)
+    if video is not None:
+        check_writable(video.path)
+    if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
+        raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
+    runner = Runner(config)
+    recorder: FrameRecorder | None = None
+    progress: Progress | None = None
+    video_error: str | None = None
+    if video is not None:
+        progress = Progress(config.cycles, progress_stream)
+        status = runner.status
+        cell = runner.cell
+
+        def lines() -> list[str]:
+            return overlay_lines(status, cell.time)
+
+        try:  # a bad camera or size raises ConfigError here, before anything has run
+            recorder = FrameRecorder(runner.model, video, lines, progress)
+        except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
+            video_error = str(exc)
+        else:
+            runner.cell.hooks.append(recorder)
+
+    wall0 = time.perf_counter()
+    interrupted = False
+    try:
+        for i in range(1, config.cycles + 1):
+            cycle = runner.run_cycle(i, runner.slot_for_cycle())
+            out.write(cycle_line(cycle, config.cycles) + "\n")
+            out.flush()
+            if progress is not None:
+                progress.cycle_done(i)
+        if recorder is not None and recorder.error is None:
+            recorder.override = recorder.tail_cameras()
+            runner.idle(video.tail if video is not None else 0.0)
+    except KeyboardInterrupt:
+        interrupted = True
+        sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")
+    wall = time.perf_counter() - wall0
+    report = build_report(config, runner.results, wall, interrupted=interrupted)
+    write_json_atomic(report_path, report)
+    result = JobResult(
+        report, report_path, interrupted, video_error=video_error, sim_time=runner.cell.time
+    )
+
+    if recorder is not None:
+        runner.cell.hooks.remove(recorder)
+        try:
+            result.video_frames = recorder.close()
+        except RenderError as exc:
+            result.video_error = str(exc)
+        if progress is not None:
+            progress.finish(result.video_frames)
+    if plots_dir is not None and runner.results:
+        from kr210_sim.plots import write_plots
+
+        result.plot_paths = write_plots(plots_dir, runner.results, runner.recordings, runner.robot)
+    return result

@@ -1,0 +1,138 @@
+"""PNG plots of a run (matplotlib, headless): what a report's numbers look like over time.
+
+* ``tracking_error.png``: |q_des - q| per joint over simulated time [deg].
+* ``gripper_error.png``: gripper position error against the plan, one curve per cycle [mm]
+  (the original exercise's "error plot").
+* ``joint_limits.png``: joint positions and velocities against their limits.
+* ``cycle_times.png``: cycle time per cycle, coloured by outcome.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from kr210_sim import kinematics
+from kr210_sim.control import Recording
+from kr210_sim.errors import ConfigError
+from kr210_sim.robot import ARM_JOINTS, RobotDescription
+from kr210_sim.runner import CycleResult
+
+OUTCOME_COLOURS = {
+    None: "#2a9d4b",
+    "unreachable": "#7f7f7f",
+    "collision": "#d62728",
+    "grasp_missed": "#ff7f0e",
+    "dropped_in_transit": "#9467bd",
+    "missed_bin": "#8c564b",
+}
+
+
+def write_plots(
+    out_dir: Path | str,
+    results: Sequence[CycleResult],
+    recordings: Sequence[Recording],
+    robot: RobotDescription,
+) -> list[Path]:
+    """Write the four plots into ``out_dir``; return their paths.
+
+    Raises:
+        ConfigError: When ``out_dir`` cannot be created or written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create the plot folder {out}: {exc.strerror}") from exc
+    arrays = [rec.arrays() for rec in recordings]
+    paths: list[Path] = []
+
+    def save(fig: object, name: str) -> None:
+        path = out / name
+        try:
+            fig.savefig(path, dpi=110)  # type: ignore[attr-defined]
+        except OSError as exc:
+            raise ConfigError(f"cannot write {path}: {exc.strerror}") from exc
+        finally:
+            plt.close(fig)  # type: ignore[arg-type]
+        paths.append(path)
+
+    # 1. tracking error per joint
+    fig, axes = plt.subplots(6, 1, figsize=(10, 9), sharex=True)
+    for a in arrays:
+        err = np.degrees(np.abs(a["q_des"] - a["q"]))
+        for j, ax in enumerate(axes):
+            ax.plot(a["t"], err[:, j], lw=0.7, color="C0")
+    for j, ax in enumerate(axes):
+        ax.set_ylabel(f"{ARM_JOINTS[j]}\n[deg]", fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0].set_title("Joint tracking error |q_des - q|")
+    axes[-1].set_xlabel("simulated time [s]")
+    fig.tight_layout()
+    save(fig, "tracking_error.png")
+
+    # 2. gripper position error against the plan, per cycle
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    for r, a in zip(results, arrays, strict=True):
+        if not len(a["t"]):
+            continue
+        planned = kinematics.forward(a["q_des"])[:, :3, 3]
+        actual = kinematics.forward(a["q"])[:, :3, 3]
+        err = np.linalg.norm(actual - planned, axis=1) * 1000.0
+        ax.plot(a["t"] - a["t"][0], err, lw=0.8, label=f"cycle {r.index} (slot {r.slot})")
+    ax.set_xlabel("time in cycle [s]")
+    ax.set_ylabel("gripper position error [mm]")
+    ax.set_title("Gripper position against the plan")
+    ax.grid(alpha=0.3)
+    if results:
+        ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    save(fig, "gripper_error.png")
+
+    # 3. joint positions and velocities against their limits
+    fig, axes = plt.subplots(6, 2, figsize=(12, 10), sharex=True)
+    for a in arrays:
+        for j in range(6):
+            axes[j, 0].plot(a["t"], np.degrees(a["q"][:, j]), lw=0.7, color="C0")
+            axes[j, 1].plot(a["t"], np.degrees(a["qd"][:, j]), lw=0.7, color="C1")
+    for j in range(6):
+        for lim in (robot.q_lower[j], robot.q_upper[j]):
+            axes[j, 0].axhline(np.degrees(lim), color="r", ls="--", lw=0.8)
+        for lim in (-robot.qd_max[j], robot.qd_max[j]):
+            axes[j, 1].axhline(np.degrees(lim), color="r", ls="--", lw=0.8)
+        axes[j, 0].set_ylabel(f"{ARM_JOINTS[j]}\n[deg]", fontsize=8)
+        axes[j, 1].set_ylabel("[deg/s]", fontsize=8)
+    axes[0, 0].set_title("Joint positions (limits dashed)")
+    axes[0, 1].set_title("Joint velocities (limits dashed)")
+    axes[-1, 0].set_xlabel("simulated time [s]")
+    axes[-1, 1].set_xlabel("simulated time [s]")
+    fig.tight_layout()
+    save(fig, "joint_limits.png")
+
+    # 4. cycle times by outcome
+    fig, ax = plt.subplots(figsize=(10, 4))
+    idx = [r.index for r in results]
+    ax.bar(
+        idx,
+        [r.cycle_time for r in results],
+        color=[OUTCOME_COLOURS.get(r.reason, "k") for r in results],
+    )
+    for reason, colour in OUTCOME_COLOURS.items():
+        if any(r.reason == reason for r in results):
+            ax.bar([], [], color=colour, label=reason or "success")
+    ax.set_xlabel("cycle")
+    ax.set_ylabel("cycle time [s]")
+    ax.set_title("Cycle time by outcome")
+    if results:
+        ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    save(fig, "cycle_times.png")
+    return paths

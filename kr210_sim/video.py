@@ -1,0 +1,361 @@
+"""Offscreen video export: frames sampled in simulated time, overlaid, encoded to H.264 MP4.
+
+A :class:`FrameRecorder` is a step hook of :class:`kr210_sim.control.Cell`: after every physics
+step it checks whether the next frame is due (frames are spaced ``1 / fps`` of *simulated*
+time, so the video plays at real speed) and renders it from each requested camera. Rendering
+only reads ``MjData``: a run with and without video gives the same report.
+
+Render and encode overlap: the main thread renders (the OpenGL context lives there) and hands
+each frame to a writer thread through a small bounded queue; that thread draws the text overlay
+and pipes the frame to ffmpeg (imageio-ffmpeg), which encodes in its own process. Rendering
+the next frame thus proceeds while the previous one is overlaid, piped and encoded.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.render import check_camera, make_renderer
+
+import mujoco  # isort: skip
+
+#: Quality presets: (shadows, shadow map size [px], MSAA samples).
+QUALITY: dict[str, tuple[bool, int, int]] = {
+    "fast": (False, 1024, 0),
+    "medium": (True, 1024, 0),
+    "high": (True, 4096, 4),
+}
+
+
+#: H.264 settings per quality: (CRF, x264 preset). Faster presets leave more CPU to rendering.
+ENCODING: dict[str, tuple[int, str]] = {
+    "fast": (23, "ultrafast"),
+    "medium": (21, "veryfast"),
+    "high": (18, "medium"),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class VideoSettings:
+    """What to record.
+
+    Attributes:
+        path: Output MP4 path.
+        cameras: Camera names; more than one tiles the views side by side.
+        width: Width of each view [px], a multiple of 16.
+        height: Height [px], a multiple of 16.
+        fps: Frames per second of simulated time.
+        quality: One of :data:`QUALITY` (fast: no shadows; medium: shadows; high: shadows with a
+            large shadow map and 4x multisampling).
+        tail: Seconds of the bin camera appended after the last cycle [s].
+    """
+
+    path: Path
+    cameras: tuple[str, ...] = ("overview",)
+    width: int = 640
+    height: int = 480
+    fps: int = 30
+    quality: str = "medium"
+    tail: float = 2.5
+
+    def __post_init__(self) -> None:
+        if not self.cameras:
+            raise ConfigError("give at least one camera")
+        for name, v in (("width", self.width), ("height", self.height)):
+            if v < 16 or v % 16:
+                raise ConfigError(f"video {name} must be a positive multiple of 16, got {v}")
+        if not 1 <= self.fps <= 120:
+            raise ConfigError(f"fps must be 1-120, got {self.fps}")
+        if self.quality not in QUALITY:
+            raise ConfigError(f"quality must be one of {', '.join(QUALITY)}, got {self.quality!r}")
+        if self.path.suffix.lower() != ".mp4":
+            raise ConfigError(f"video path must end in .mp4, got {self.path}")
+
+
+def ffmpeg_exe() -> str:
+    """Path of the ffmpeg binary imageio-ffmpeg uses.
+
+    Raises:
+        RenderError: When no ffmpeg is available.
+    """
+    try:
+        import imageio_ffmpeg
+
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+    except Exception as exc:
+        raise RenderError(
+            f"ffmpeg is not available ({exc}): pip install imageio-ffmpeg, or set "
+            "IMAGEIO_FFMPEG_EXE to an ffmpeg binary"
+        ) from exc
+    if not os.access(exe, os.X_OK):
+        raise RenderError(f"ffmpeg at {exe} is not executable: reinstall imageio-ffmpeg")
+    return str(exe)
+
+
+#: How the runner's phase names read in the overlay.
+PHASE_LABELS = {
+    "spawn": "spawn",
+    "approach": "approach",
+    "grasp": "grasp",
+    "lift": "lift",
+    "retreat": "lift",
+    "carry": "carry",
+    "release": "release",
+    "return": "return",
+    "settle": "settle",
+    "done": "done",
+    "idle": "idle",
+}
+
+
+def overlay_lines(status: dict[str, object], sim_time: float) -> list[str]:
+    """The overlay text for the runner's ``status`` at simulated time ``sim_time`` [s]."""
+    phase = str(status.get("phase", ""))
+    done = int(status.get("done", 0))  # type: ignore[call-overload]
+    return [
+        f"cycle {status.get('cycle', 0)}/{status.get('cycles', 0)}   slot {status.get('slot', 0)}",
+        f"phase: {PHASE_LABELS.get(phase, phase)}",
+        f"score: {status.get('successes', 0)}/{done}",
+        f"t = {sim_time:6.2f} s",
+    ]
+
+
+class _Overlay:
+    """Draws the status text onto frames (PIL)."""
+
+    def __init__(self, height: int) -> None:
+        from PIL import ImageFont
+
+        self.size = max(12, height // 30)
+        self.font = ImageFont.load_default(size=self.size)
+
+    def draw(self, frame: npt.NDArray[np.uint8], lines: list[str]) -> npt.NDArray[np.uint8]:
+        """Draw ``lines`` in a translucent box in the top-left corner of ``frame`` (in place).
+
+        Only the box's pixels go through PIL, not the whole frame.
+        """
+        from PIL import Image, ImageDraw
+
+        pad = self.size // 2
+        line_h = int(self.size * 1.3)
+        w = max(int(self.font.getlength(t)) for t in lines) + 2 * pad
+        h = len(lines) * line_h + 2 * pad
+        w, h = min(w, frame.shape[1]), min(h, frame.shape[0])
+        box = Image.fromarray(frame[:h, :w])
+        shade = Image.new("RGBA", box.size, (0, 0, 0, 150))
+        box = Image.alpha_composite(box.convert("RGBA"), shade)
+        draw = ImageDraw.Draw(box)
+        for i, text in enumerate(lines):
+            draw.text((pad, pad + i * line_h), text, font=self.font, fill=(255, 255, 255, 255))
+        frame[:h, :w] = np.asarray(box.convert("RGB"))
+        return frame
+
+
+class _Writer:
+    """Overlays and encodes frames on a background thread."""
+
+    def __init__(self, settings: VideoSettings, frame_width: int) -> None:
+        import imageio.v2 as imageio
+
+        ffmpeg_exe()
+        self.overlay = _Overlay(settings.height)
+        crf, preset = ENCODING[settings.quality]
+        try:
+            self.writer = imageio.get_writer(
+                str(settings.path),
+                fps=settings.fps,
+                codec="libx264",
+                macro_block_size=16,
+                pixelformat="yuv420p",
+                ffmpeg_log_level="error",
+                output_params=["-crf", str(crf), "-preset", preset],
+            )
+        except Exception as exc:
+            raise RenderError(f"cannot start the video encoder for {settings.path}: {exc}") from exc
+        self.queue: queue.Queue[tuple[npt.NDArray[np.uint8], list[str]] | None] = queue.Queue(8)
+        self.error: BaseException | None = None
+        self.frames = 0
+        self.thread = threading.Thread(target=self._run, name="kr210-video", daemon=True)
+        self.thread.start()
+        del frame_width
+
+    def _run(self) -> None:
+        while True:
+            item = self.queue.get()
+            if item is None:
+                return
+            if self.error is not None:
+                continue
+            try:
+                frame, lines = item
+                self.writer.append_data(self.overlay.draw(frame, lines))
+                self.frames += 1
+            except BaseException as exc:  # surfaced on the main thread
+                self.error = exc
+
+    def put(self, frame: npt.NDArray[np.uint8], lines: list[str]) -> None:
+        if self.error is not None:
+            raise RenderError(f"video encoding failed: {self.error}")
+        self.queue.put((frame, lines))
+
+    def close(self) -> None:
+        self.queue.put(None)
+        self.thread.join()
+        try:
+            self.writer.close()
+        except Exception as exc:
+            if self.error is None:
+                self.error = exc
+        if self.error is not None:
+            raise RenderError(f"video encoding failed: {self.error}")
+
+
+@dataclass
+class FrameRecorder:
+    """A cell step hook that renders frames at ``fps`` of simulated time.
+
+    Args:
+        model: The cell model (its render-only quality fields are set from the settings).
+        settings: What to record.
+        status: Called for the overlay text lines at each frame.
+        progress: Optional callback ``(frames, sim_time)`` after each frame.
+    """
+
+    model: mujoco.MjModel
+    settings: VideoSettings
+    status: Callable[[], list[str]]
+    progress: Callable[[int, float], None] | None = None
+    frames: int = 0
+    render_seconds: float = 0.0
+    _renderer: Any = field(default=None, repr=False)
+    _writer: _Writer | None = field(default=None, repr=False)
+    _next_t: float = 0.0
+    _cameras: list[int] = field(default_factory=list)
+    #: Cameras used instead of the settings' ones (the closing shot), or None.
+    override: list[int] | None = None
+    #: The error that stopped recording, if any (recording stops; the run goes on).
+    error: BaseException | None = None
+
+    def __post_init__(self) -> None:
+        s = self.settings
+        self._cameras = [check_camera(self.model, c) for c in s.cameras]
+        shadows, shadow_size, msaa = QUALITY[s.quality]
+        self.model.vis.quality.shadowsize = shadow_size
+        self.model.vis.quality.offsamples = msaa
+        self._shadows = shadows
+        self._renderer = make_renderer(self.model, s.width, s.height)
+        try:
+            self._writer = _Writer(s, s.width * len(self._cameras))
+        except BaseException:
+            self._renderer.close()
+            raise
+
+    def _render(self, data: mujoco.MjData, cameras: list[int]) -> npt.NDArray[np.uint8]:
+        t = time.perf_counter()
+        views = []
+        for cam in cameras:
+            self._renderer.update_scene(data, camera=cam)
+            self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self._shadows
+            views.append(self._renderer.render())
+        self.render_seconds += time.perf_counter() - t
+        return views[0] if len(views) == 1 else np.concatenate(views, axis=1)
+
+    def __call__(self, cell: Any) -> None:
+        """Step hook: render a frame when one is due. Never raises: a failure is kept in
+        :attr:`error`, recording stops and the simulation goes on unchanged."""
+        data = cell.data
+        if self.error is not None or data.time + 1e-9 < self._next_t:
+            return
+        try:
+            self.capture(data, self.override)
+        except BaseException as exc:
+            self.error = exc
+
+    def capture(self, data: mujoco.MjData, cameras: list[int] | None = None) -> None:
+        """Render and queue one frame now (and schedule the next one)."""
+        assert self._writer is not None
+        frame = self._render(data, cameras or self._cameras)
+        self._writer.put(frame, self.status())
+        self.frames += 1
+        self._next_t = (self.frames) / self.settings.fps
+        if self.progress is not None:
+            self.progress(self.frames, float(data.time))
+
+    def tail_cameras(self) -> list[int]:
+        """Cameras of the closing shot: the bin in the first view."""
+        bin_cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, "bin")
+        if bin_cam < 0:
+            return self._cameras
+        return [bin_cam, *self._cameras[1:]]
+
+    def close(self) -> int:
+        """Finish the file; return the number of frames written.
+
+        Raises:
+            RenderError: When encoding failed.
+        """
+        try:
+            if self._writer is not None:
+                self._writer.close()
+        finally:
+            if self._renderer is not None:
+                self._renderer.close()
+                self._renderer = None
+        if self.error is not None:
+            raise RenderError(f"video recording failed: {self.error}") from self.error
+        return self._writer.frames if self._writer is not None else 0
+
+
+class Progress:
+    """A one-line progress bar on stderr: frames, simulated time, cycles and the estimate."""
+
+    def __init__(self, total_cycles: int, stream: Any = None) -> None:
+        self.total = total_cycles
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.cycles_done = 0
+        self._last = 0.0
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def cycle_done(self, n: int) -> None:
+        self.cycles_done = n
+
+    def __call__(self, frames: int, sim_time: float) -> None:
+        now = time.perf_counter()
+        if now - self._last < (0.25 if self.tty else 5.0):
+            return
+        self._last = now
+        elapsed = now - self.start
+        frac = (self.cycles_done + 0.5) / self.total if self.total else 1.0
+        eta = elapsed / frac - elapsed if frac > 0 else 0.0
+        width = 24
+        filled = int(width * min(1.0, self.cycles_done / max(self.total, 1)))
+        bar = "#" * filled + "-" * (width - filled)
+        line = (
+            f"video [{bar}] cycle {self.cycles_done}/{self.total}  {frames} frames  "
+            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {max(eta, 0):4.0f} s"
+        )
+        if self.tty:
+            self.stream.write("\r" + line)
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def finish(self, frames: int) -> None:
+        elapsed = time.perf_counter() - self.start
+        if self.tty:
+            self.stream.write("\r")
+        self.stream.write(f"video: {frames} frames in {elapsed:.1f} s\n")
+        self.stream.flush()
