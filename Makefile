@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint bench scene video clean
+.PHONY: run test lint bench scene video evaluate clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -32,6 +32,9 @@ scene: $(STAMP)
 
 video: $(STAMP)
 	$(PY) -m kr210_sim run --cycles 10 --video videos/run.mp4
+
+evaluate: $(STAMP)
+	$(PY) -m kr210_sim evaluate --episodes 1000 --workers 2 --randomize $(ARGS)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache *.egg-info

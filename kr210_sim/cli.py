@@ -16,6 +16,7 @@ from kr210_sim import __version__
 from kr210_sim.errors import ConfigError, Kr210SimError
 
 DEFAULT_REPORT = Path("reports/run.json")
+DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -99,7 +100,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
     elif args.camera or args.width or args.height or args.fps or args.quality:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots)
+    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene)
     out = sys.stdout
     summary = job.report["summary"]
     out.write(summary_table(summary) + "\n")
@@ -118,6 +119,47 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
         f"cycles succeeded (pass bar {args.min_success:.0%})\n"
     )
+    return 0 if passed else 1
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from kr210_sim.evaluate import EvalConfig, evaluate
+    from kr210_sim.report import check_writable, write_json_atomic
+    from kr210_sim.scene import load_model
+
+    config = EvalConfig(
+        episodes=args.episodes,
+        seed=args.seed,
+        randomize=args.randomize,
+        workers=args.workers,
+        scene=args.scene,
+    )
+    report_path = check_writable(args.report)
+    load_model(args.scene) if args.scene else load_model()  # fail early on a bad scene
+    report, interrupted = evaluate(config)
+    write_json_atomic(report_path, report)
+    s = report["summary"]
+    lo, hi = s["success_rate_ci95"]
+    out = sys.stdout
+    out.write(
+        f"  episodes      {s['episodes']}{' (interrupted)' if interrupted else ''}\n"
+        f"  successes     {s['successes']} ({100 * s['success_rate']:.2f} %, "
+        f"95 % CI {100 * lo:.2f}-{100 * hi:.2f} %)\n"
+    )
+    for reason, f in s["failures"].items():
+        seeds = ", ".join(str(e["seed"]) for e in f["examples"])
+        out.write(f"  {reason:<13} {f['count']}  (seeds {seeds})\n")
+    ct = s["cycle_time"]
+    out.write(
+        f"  cycle time    mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s\n"
+        f"  wall time     {report['execution']['wall_time_s']:.1f} s on {config.workers} "
+        f"worker(s)\n  report: {report_path}\n"
+    )
+    if interrupted:
+        sys.stderr.write(f"kr210_sim: interrupted after {s['episodes']} episodes\n")
+        return 130
+    passed = s["success_rate"] >= args.min_success
+    out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
     return 0 if passed else 1
 
 
@@ -176,6 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.8,
         help="pass bar: exit 1 below this success rate (0.8)",
     )
+    run.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
     run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
     run.add_argument(
         "--camera",
@@ -194,6 +237,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     run.set_defaults(func=_cmd_run)
+
+    ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
+    ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
+    ev.add_argument("--workers", type=_positive_int, default=1, help="local processes (1)")
+    ev.add_argument("--seed", type=_seed, default=0, help="seed of the episode seeds (0)")
+    ev.add_argument("--randomize", action="store_true", help="randomise each episode's target")
+    ev.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    ev.add_argument(
+        "--report",
+        type=Path,
+        default=DEFAULT_EVAL_REPORT,
+        help=f"JSON report path ({DEFAULT_EVAL_REPORT})",
+    )
+    ev.add_argument(
+        "--min-success", type=_fraction, default=0.995, help="pass bar for exit 0 (0.995)"
+    )
+    ev.set_defaults(func=_cmd_evaluate)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
     scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")

@@ -18,6 +18,7 @@ from typing import Any, TextIO
 from kr210_sim.errors import ConfigError, RenderError
 from kr210_sim.report import build_report, check_writable, cycle_line, write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.scene import load_model
 from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
 
 
@@ -51,6 +52,7 @@ def run_job(
     plots_dir: Path | None = None,
     out: TextIO | None = None,
     progress_stream: TextIO | None = None,
+    scene: Path | None = None,
 ) -> JobResult:
     """Run ``config.cycles`` cycles and write the report (and video, and plots).
 
@@ -61,6 +63,7 @@ def run_job(
         plots_dir: Folder for the PNG plots, or None.
         out: Where the per-cycle lines go (stdout).
         progress_stream: Where the video progress bar goes (stderr).
+        scene: MJCF scene path (default: the committed scene).
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
@@ -76,7 +79,7 @@ def run_job(
         check_writable(video.path)
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
         raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
-    runner = Runner(config)
+    runner = Runner(config, model=load_model(scene) if scene is not None else None)
     recorder: FrameRecorder | None = None
     progress: Progress | None = None
     video_error: str | None = None

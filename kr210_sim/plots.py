@@ -24,6 +24,7 @@ OUTCOME_COLOURS = {
     None: "#2a9d4b",
     "unreachable": "#7f7f7f",
     "collision": "#d62728",
+    "knocked_over": "#e377c2",
     "grasp_missed": "#ff7f0e",
     "dropped_in_transit": "#9467bd",
     "missed_bin": "#8c564b",

@@ -24,8 +24,11 @@ from kr210_sim import __version__
 from kr210_sim.errors import ConfigError
 from kr210_sim.runner import CycleResult, RunConfig
 
-#: Keys whose values depend on the machine, not on the simulation.
-WALL_KEYS = frozenset({"wall_time", "wall_time_s", "real_time_factor", "steps_per_second"})
+#: Keys whose values depend on the machine or on how the work was spread over processes, not on
+#: the simulation (``execution``: worker count and wall time of an evaluation).
+WALL_KEYS = frozenset(
+    {"wall_time", "wall_time_s", "real_time_factor", "steps_per_second", "execution"}
+)
 
 
 def versions() -> dict[str, str]:

@@ -6,9 +6,11 @@ and the scene builder all read their constants from :func:`load_robot`, never fr
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import numpy.typing as npt
@@ -136,12 +138,21 @@ def load_robot(urdf_path: Path | str = URDF_PATH) -> RobotDescription:
     path = Path(urdf_path)
     if not path.is_file():
         raise SceneError(f"URDF not found: {path} (regenerate or restore assets/kr210/kr210.urdf)")
+    try:  # yourdfpy's own messages on bad XML are vague: check well-formedness first
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        raise SceneError(f"malformed URDF {path}: {exc}") from exc
+    yourdfpy_log = logging.getLogger("yourdfpy")
+    level = yourdfpy_log.level
+    yourdfpy_log.setLevel(logging.CRITICAL)  # it logs before raising; we raise one clear line
     try:
         urdf = yourdfpy.URDF.load(
             str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False
         )
-    except Exception as exc:  # yourdfpy raises many kinds on bad XML
-        raise SceneError(f"cannot parse URDF {path}: {exc}") from exc
+    except Exception as exc:  # yourdfpy raises many kinds on bad URDF content
+        raise SceneError(f"malformed URDF {path}: {type(exc).__name__}: {exc}") from exc
+    finally:
+        yourdfpy_log.setLevel(level)
     joints: dict[str, JointInfo] = {}
     for j in urdf.robot.joints:
         limit = j.limit

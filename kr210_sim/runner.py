@@ -22,7 +22,14 @@ from kr210_sim.control import Cell, Recording, hold
 from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
 from kr210_sim.robot import RobotDescription, load_robot
 from kr210_sim.scene import load_model
-from kr210_sim.scoring import REST_SPEED, CycleObservation, Outcome, in_bin, score
+from kr210_sim.scoring import (
+    REST_SPEED,
+    TOPPLED_TILT_DEG,
+    CycleObservation,
+    Outcome,
+    in_bin,
+    score,
+)
 from kr210_sim.task import Move, Planner
 
 import mujoco  # isort: skip
@@ -240,6 +247,16 @@ class Runner:
         mujoco.mj_forward(self.model, d)
         return k
 
+    def observe_target(self, index: int) -> FloatArray:
+        """The target's position [m] as the planner perceives it (the simulator's pose: a
+        perfect sensor; subclasses may model perception error)."""
+        return self.cell.target_pose(index)[0]
+
+    def target_tilt_deg(self, index: int) -> float:
+        """Angle of target ``index``'s axis from the vertical [deg]."""
+        _, R = self.cell.target_pose(index)
+        return float(np.degrees(np.arccos(np.clip(abs(R[2, 2]), 0.0, 1.0))))
+
     def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
         self.status["phase"] = move.phase
         dt = self.cell.track(move.trajectory, rec, move.phase)
@@ -295,7 +312,7 @@ class Runner:
         phases: dict[str, float] = {}
         self._hold(SPAWN_SETTLE, rec, "spawn", phases)
         t_start = cell.time
-        planned, confirmed, held, released = True, False, False, False
+        planned, confirmed, held, released, toppled = True, False, False, False, False
         attempts = 0
         detail = ""
         grip_ref: FloatArray | None = None
@@ -303,7 +320,7 @@ class Runner:
         try:
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
-                position, _ = cell.target_pose(k)
+                position = self.observe_target(k)
                 plan = self.planner.plan_grasp(self.q_cmd, position, sample.spec.radius)
                 self._track(plan.approach_ptp, rec, phases)
                 self._track(plan.approach_lin, rec, phases)
@@ -321,6 +338,14 @@ class Runner:
                         "retreat", self.q_cmd, kinematics.forward(plan.approach_ptp.q_end)
                     )
                     self._track(back, rec, phases)
+                    tilt = self.target_tilt_deg(k)
+                    if tilt > TOPPLED_TILT_DEG:  # no upright cylinder left to re-plan for
+                        toppled = True
+                        detail = (
+                            f"the target was knocked over in slot {slot} (axis {tilt:.0f} deg "
+                            f"from vertical) on attempt {attempts}; {detail}"
+                        )
+                        break
                     continue
                 grip_ref = cell.target_in_gripper()
                 i_grip = len(rec)
@@ -361,6 +386,8 @@ class Runner:
             robot_env_contacts=int(sum(int(seg["env_contact"].sum()) for seg in rec.segments)),
             target_position=cell.target_pose(k)[0],
             target_speed=cell.target_speed(k),
+            target_toppled=toppled
+            or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
         outcome = score(obs, cfg.cell.bin)
         if outcome is Outcome.SUCCESS:
@@ -468,6 +495,8 @@ def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: Cel
     if outcome is Outcome.COLLISION:
         pairs = ", ".join(f"{a}/{b}" for a, b in sorted(rec.contact_pairs)[:3])
         return f"robot touched the cell for {obs.robot_env_contacts} ticks ({pairs})"
+    if outcome is Outcome.KNOCKED_OVER:
+        return f"the grip failed and the target was left tipped over at {p}"
     if outcome is Outcome.GRASP_MISSED:
         return "the grip was never confirmed"
     if outcome is Outcome.DROPPED_IN_TRANSIT:

@@ -52,6 +52,9 @@ FINGER_KV = 400.0
 GRASP_SOLREF = (0.004, 1.0)
 GRASP_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
 FINGER_FRICTION = (1.5, 0.01, 0.0001)
+#: Torsional [m] and rolling [m] friction of the targets. Rolling resistance (condim 6) lets a
+#: cylinder that lands on its side in the bin come to rest instead of rolling wall to wall.
+TARGET_SPIN_ROLL = (0.01, 0.002)
 #: Simulation timestep in [s].
 TIMESTEP = 0.002
 #: Offscreen framebuffer size in [px] (largest video frame).
@@ -366,8 +369,8 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
             size=[t.radius, t.length / 2.0, 0],
             mass=t.mass,
             rgba=list(TARGET_RGBA),
-            condim=4,
-            friction=[t.friction, 0.01, 0.0001],
+            condim=6,
+            friction=[t.friction, *TARGET_SPIN_ROLL],
             priority=1,
             solref=list(GRASP_SOLREF),
             solimp=list(GRASP_SOLIMP),
@@ -509,7 +512,8 @@ def load_model(path: Path | str = SCENE_PATH) -> mujoco.MjModel:
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except Exception as exc:
-        raise SceneError(f"MuJoCo cannot load scene {path}: {exc}") from exc
+        reason = " ".join(str(exc).split())  # MuJoCo's messages span several lines
+        raise SceneError(f"MuJoCo cannot load scene {path}: {reason}") from exc
 
 
 @dataclass(frozen=True, slots=True)
@@ -566,13 +570,17 @@ class CellHandles:
             i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
             if i < 0:
                 names = [model.joint(k).name for k in range(model.njnt)]
-                raise SceneError(f"scene has no joint {name!r}; joints: {names}")
+                raise SceneError(
+                    f"scene is not a kr210_sim cell: it has no joint {name!r} (joints: {names})"
+                )
             return int(i)
 
         def oid(kind: mujoco.mjtObj, name: str) -> int:
             i = mujoco.mj_name2id(model, kind, name)
             if i < 0:
-                raise SceneError(f"scene has no {kind.name[6:].lower()} {name!r}")
+                raise SceneError(
+                    f"scene is not a kr210_sim cell: it has no {kind.name[6:].lower()} {name!r}"
+                )
             return int(i)
 
         arm = [jid(n) for n in ARM_JOINTS]

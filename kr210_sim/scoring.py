@@ -21,6 +21,7 @@ class Outcome(StrEnum):
     SUCCESS = "success"
     UNREACHABLE = "unreachable"
     COLLISION = "collision"
+    KNOCKED_OVER = "knocked_over"
     GRASP_MISSED = "grasp_missed"
     DROPPED_IN_TRANSIT = "dropped_in_transit"
     MISSED_BIN = "missed_bin"
@@ -44,6 +45,8 @@ class CycleObservation:
         robot_env_contacts: Number of control ticks with a robot-shelf or robot-bin contact.
         target_position: Final target centre in [m], shape (3,).
         target_speed: Final linear speed of the target in [m/s].
+        target_toppled: True when the grip failed and the target was left tipped over (see
+            :data:`TOPPLED_TILT_DEG`).
     """
 
     planned: bool
@@ -53,6 +56,11 @@ class CycleObservation:
     robot_env_contacts: int
     target_position: npt.NDArray[np.float64]
     target_speed: float
+    target_toppled: bool = False
+
+
+#: Tilt of a target's axis from the vertical beyond which it counts as knocked over [deg].
+TOPPLED_TILT_DEG = 30.0
 
 
 def in_bin(position: npt.ArrayLike, bin_spec: BinSpec, margin: float = 0.0) -> bool:
@@ -79,7 +87,8 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
     A cycle succeeds when the target rests inside the bin (centre inside the walls, below the
     rim, speed below :data:`REST_SPEED`) after the gripper opened, with no robot contact with
     the shelf or the bin. Otherwise the first failure in this order is returned: unreachable,
-    collision, grasp_missed, dropped_in_transit, missed_bin.
+    collision, knocked_over (no grip, target tipped over), grasp_missed, dropped_in_transit,
+    missed_bin.
 
     Args:
         obs: What happened.
@@ -93,7 +102,7 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
     if obs.robot_env_contacts > 0:
         return Outcome.COLLISION
     if not obs.grasp_confirmed:
-        return Outcome.GRASP_MISSED
+        return Outcome.KNOCKED_OVER if obs.target_toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
     if not in_bin(obs.target_position, bin_spec) or obs.target_speed > REST_SPEED:

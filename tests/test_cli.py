@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,7 @@ import pytest
 
 from kr210_sim import __version__
 from kr210_sim.cli import main
+from kr210_sim.report import strip_wall
 
 
 @pytest.mark.parametrize(
@@ -71,3 +73,109 @@ def test_run_writes_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert data["config"]["seed"] == 3
     assert set(data["versions"]) >= {"kr210_sim", "mujoco", "numpy", "ruckig", "python"}
     assert not list(report.parent.glob("*.tmp"))
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["evaluate", "--workers", "0"], "must be at least 1"),
+        (["evaluate", "--episodes", "0"], "must be at least 1"),
+        (["evaluate", "--episodes", "x"], "expected a whole number"),
+        (["evaluate", "--min-success", "2"], "must be in [0, 1]"),
+    ],
+)
+def test_evaluate_usage_errors(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+def _one_line(capsys: pytest.CaptureFixture[str]) -> str:
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize("command", ["run", "evaluate"])
+def test_missing_scene(tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    argv = [command, "--scene", str(tmp_path / "nope.xml"), "--report", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    assert "scene not found" in _one_line(capsys)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("<mujoco><worldbody><body></mujoco>", "MuJoCo cannot load scene"),
+        ("<mujoco><worldbody/></mujoco>", "is not a kr210_sim cell"),
+    ],
+)
+def test_malformed_scene(
+    tmp_path: Path, text: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = tmp_path / "bad.xml"
+    scene.write_text(text)
+    argv = ["run", "--cycles", "1", "--scene", str(scene), "--report", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    assert message in _one_line(capsys)
+
+
+def _run_with_root(root: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "KR210_SIM_ROOT": str(root)}
+    return subprocess.run(
+        [sys.executable, "-m", "kr210_sim", "run", "--cycles", "1", "--report",
+         str(root / "r.json")],
+        capture_output=True, text=True, env=env, check=False,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("urdf", "message"), [(None, "URDF not found"), ("<robot name='x'><link", "malformed")]
+)
+def test_missing_or_malformed_urdf(tmp_path: Path, urdf: str | None, message: str) -> None:
+    from kr210_sim.paths import SCENES_DIR
+
+    (tmp_path / "assets" / "kr210").mkdir(parents=True)
+    (tmp_path / "scenes").symlink_to(SCENES_DIR)
+    if urdf is not None:
+        (tmp_path / "assets" / "kr210" / "kr210.urdf").write_text(urdf)
+    proc = _run_with_root(tmp_path)
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+def test_ctrl_c_during_a_run_writes_the_cycles_done(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.runner import Runner
+
+    real = Runner.run_cycle
+
+    def interrupted_third(self: Runner, index: int, slot: int):  # type: ignore[no-untyped-def]
+        if index == 3:
+            raise KeyboardInterrupt
+        return real(self, index, slot)
+
+    monkeypatch.setattr(Runner, "run_cycle", interrupted_third)
+    report = tmp_path / "run.json"
+    assert main(["run", "--cycles", "5", "--report", str(report)]) == 130
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True
+    assert [c["index"] for c in data["cycles"]] == [1, 2]
+    assert data["summary"]["cycles"] == 2
+    assert "interrupted after 2 cycles" in capsys.readouterr().err
+
+
+def test_same_command_twice_gives_identical_json(tmp_path: Path) -> None:
+    texts = []
+    for name in ("a.json", "b.json"):
+        path = tmp_path / name
+        argv = ["run", "--cycles", "3", "--seed", "11", "--randomize", "--report", str(path)]
+        assert main(argv) == 0
+        texts.append(json.dumps(strip_wall(json.loads(path.read_text())), indent=2, sort_keys=True))
+    assert texts[0] == texts[1]

@@ -94,3 +94,37 @@ def test_same_seed_same_report() -> None:
             json.dumps(strip_wall(build_report(runner.config, runner.results, 1.0)), sort_keys=True)
         )
     assert reports[0] == reports[1]
+
+
+class _Misperceived(Runner):
+    """The first observation of the target is off by ``offset`` [m]; later ones are exact."""
+
+    offset = np.zeros(3)
+    observations = 0
+
+    def observe_target(self, index: int) -> np.ndarray:
+        self.observations += 1
+        position = super().observe_target(index)
+        return position + (self.offset if self.observations == 1 else 0.0)
+
+
+def test_missed_grasp_is_retried_from_a_fresh_observation_and_recovers() -> None:
+    runner = _Misperceived(RunConfig(cycles=1))
+    runner.offset = np.array([0.0, 0.0, 0.2])  # fingers close 0.2 m above the cylinder's centre
+    r = runner.run_cycle(1, 5)
+    assert r.success, r.detail
+    assert r.grasp_attempts == 2 and runner.observations == 2
+    assert r.env_contact_ticks == 0
+    summary = build_report(runner.config, runner.results, 1.0)["summary"]
+    assert summary["grasp_retries"] == 1
+
+
+def test_a_target_knocked_over_in_its_slot_is_reported() -> None:
+    runner = _Misperceived(RunConfig(cycles=1))
+    runner.offset = np.array([-0.06, 0.0, 0.0])  # the fingertips strike the cylinder's front
+    r = runner.run_cycle(1, 5)
+    assert r.reason == "knocked_over"
+    assert "knocked over in slot 5" in r.detail
+    assert r.grasp_attempts == 1  # no blind retry on a cylinder lying down
+    # The toppled cylinder was cleared from the shelf: the next cycle runs normally.
+    assert runner.run_cycle(2, 5).success

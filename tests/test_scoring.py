@@ -35,6 +35,7 @@ def test_success() -> None:
     [
         ({"planned": False, "grasp_confirmed": False}, Outcome.UNREACHABLE),
         ({"robot_env_contacts": 3}, Outcome.COLLISION),
+        ({"grasp_confirmed": False, "target_toppled": True}, Outcome.KNOCKED_OVER),
         (
             {"grasp_confirmed": False, "target_position": np.array([2.6, 0, 0.914])},
             Outcome.GRASP_MISSED,
