@@ -11,6 +11,7 @@ import argparse
 import logging
 import sys
 from pathlib import Path
+from typing import Any
 
 from kr210_sim import __version__
 from kr210_sim.errors import ConfigError, Kr210SimError
@@ -27,57 +28,51 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def _positive_int(text: str) -> int:
+def _parsed(text: str, cast: type[int] | type[float], expected: str) -> Any:
     try:
-        value = int(text)
+        return cast(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+
+
+def _check(ok: bool, message: str) -> None:
+    if not ok:
+        raise argparse.ArgumentTypeError(message)
+
+
+def _positive_int(text: str) -> int:
+    value: int = _parsed(text, int, "a whole number")
+    _check(value >= 1, f"must be at least 1, got {value}")
     return value
 
 
 def _slot(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected 0-9, got {text!r}") from None
-    if not 0 <= value <= 9:
-        raise argparse.ArgumentTypeError(f"must be 0 (random) or 1-9, got {value}")
+    value: int = _parsed(text, int, "0-9")
+    _check(0 <= value <= 9, f"must be 0 (random) or 1-9, got {value}")
     return value
 
 
 def _fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text!r}") from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {value}")
+    value: float = _parsed(text, float, "a number in [0, 1]")
+    _check(0.0 <= value <= 1.0, f"must be in [0, 1], got {value}")
     return value
 
 
 def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    value: int = _parsed(text, int, "a whole number")
+    _check(value >= 0, f"must be >= 0, got {value}")
     return value
 
 
 def _multiple_of_16(text: str) -> int:
     value = _positive_int(text)
-    if value % 16:
-        raise argparse.ArgumentTypeError(f"must be a multiple of 16, got {value}")
+    _check(value % 16 == 0, f"must be a multiple of 16, got {value}")
     return value
 
 
 def _fps(text: str) -> int:
     value = _positive_int(text)
-    if value > 120:
-        raise argparse.ArgumentTypeError(f"must be 1-120, got {value}")
+    _check(value <= 120, f"must be 1-120, got {value}")
     return value
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -220,6 +221,24 @@ def _rotation(rotvec: FloatArray) -> FloatArray:
     return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
 
 
+def _hermite(
+    x: Any, p0: FloatArray, p1: FloatArray, m0: FloatArray, m1: FloatArray, h: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Cubic Hermite segment at local parameter ``x`` in [0, 1] (a float or an (n, 1) array):
+    value, first and second derivative with respect to arc length (segment length ``h``)."""
+    x2, x3 = x * x, x * x * x
+    q = (2 * x3 - 3 * x2 + 1) * p0 + (x3 - 2 * x2 + x) * m0 + (-2 * x3 + 3 * x2) * p1
+    q = q + (x3 - x2) * m1
+    dq = (
+        (6 * x2 - 6 * x) * p0
+        + (3 * x2 - 4 * x + 1) * m0
+        + (-6 * x2 + 6 * x) * p1
+        + (3 * x2 - 2 * x) * m1
+    ) / h
+    ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1 + (6 * x - 2) * m1) / (h * h)
+    return q, dq, ddq
+
+
 class LineTrajectory(Trajectory):
     """A straight-line Cartesian move: q(s) on a cubic Hermite spline, s(t) from ruckig."""
 
@@ -254,23 +273,7 @@ class LineTrajectory(Trajectory):
         h = self._ds
         p0, p1 = self.q_knots[i], self.q_knots[i + 1]
         m0, m1 = self._m[i] * h, self._m[i + 1] * h
-        x2, x3 = x * x, x * x * x
-        q = (
-            (2 * x3 - 3 * x2 + 1) * p0
-            + (x3 - 2 * x2 + x) * m0
-            + (-2 * x3 + 3 * x2) * p1
-            + (x3 - x2) * m1
-        )
-        dq = (
-            (6 * x2 - 6 * x) * p0
-            + (3 * x2 - 4 * x + 1) * m0
-            + (-6 * x2 + 6 * x) * p1
-            + (3 * x2 - 2 * x) * m1
-        ) / h
-        ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1 + (6 * x - 2) * m1) / (
-            h * h
-        )
-        return q, dq, ddq
+        return _hermite(x, p0, p1, m0, m1, h)
 
     def path_many(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """:meth:`path` at many arc lengths ``s`` [m]: arrays of shape (n, 6)."""
@@ -283,23 +286,7 @@ class LineTrajectory(Trajectory):
         x = (u - i)[:, None]
         p0, p1 = self.q_knots[i], self.q_knots[i + 1]
         m0, m1 = self._m[i] * h, self._m[i + 1] * h
-        x2, x3 = x * x, x * x * x
-        q = (
-            (2 * x3 - 3 * x2 + 1) * p0
-            + (x3 - 2 * x2 + x) * m0
-            + (-2 * x3 + 3 * x2) * p1
-            + (x3 - x2) * m1
-        )
-        dq = (
-            (6 * x2 - 6 * x) * p0
-            + (3 * x2 - 4 * x + 1) * m0
-            + (-6 * x2 + 6 * x) * p1
-            + (3 * x2 - 2 * x) * m1
-        ) / h
-        ddq = ((12 * x - 6) * p0 + (6 * x - 4) * m0 + (-12 * x + 6) * p1 + (6 * x - 2) * m1) / (
-            h * h
-        )
-        return q, dq, ddq
+        return _hermite(x, p0, p1, m0, m1, h)
 
     def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         t = np.asarray(ts, dtype=np.float64)

@@ -191,6 +191,12 @@ def test_invalid_pose(pose: np.ndarray, message: str) -> None:
     if pose.shape == (4, 4):
         with pytest.raises(ValueError, match=message):
             kin.nearest(pose, np.zeros(6))
+        # The batch path, large enough to be checked chunk by chunk on the thread pool, with the
+        # bad pose last.
+        batch = np.repeat(np.eye(4)[None], kin.CHUNK + 5, axis=0)
+        batch[-1] = pose
+        with pytest.raises(ValueError, match=message):
+            kin.inverse(batch)
 
 
 def test_invalid_q() -> None:
