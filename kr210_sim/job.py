@@ -84,7 +84,7 @@ def run_job(
     progress: Progress | None = None
     video_error: str | None = None
     if video is not None:
-        progress = Progress(config.cycles, progress_stream)
+        progress = Progress(config.cycles, progress_stream, tail=video.tail)
         status = runner.status
         cell = runner.cell
 
@@ -106,7 +106,7 @@ def run_job(
             out.write(cycle_line(cycle, config.cycles) + "\n")
             out.flush()
             if progress is not None:
-                progress.cycle_done(i)
+                progress.cycle_done(i, runner.cell.time)
         if recorder is not None and recorder.error is None:
             recorder.override = recorder.tail_cameras()
             runner.idle(video.tail if video is not None else 0.0)

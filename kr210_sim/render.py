@@ -23,6 +23,10 @@ GL_HELP = (
 )
 
 
+#: Largest frame side [px] (within every OpenGL implementation's renderbuffer limit).
+MAX_FRAME = 8192
+
+
 def camera_names(model: mujoco.MjModel) -> list[str]:
     """Names of the model's cameras."""
     return [model.camera(i).name for i in range(model.ncam)]
@@ -43,18 +47,19 @@ def check_camera(model: mujoco.MjModel, name: str) -> int:
 def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """An offscreen renderer for ``model`` at ``width`` x ``height`` [px].
 
+    The model's offscreen buffer (``vis.global_.offwidth/offheight``, a render-only field) is
+    enlarged to fit when the frame is bigger than the scene's default.
+
     Raises:
-        ConfigError: When the size is not positive or exceeds the scene's offscreen buffer.
+        ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
         RenderError: When no OpenGL backend can be started.
     """
     if width < 1 or height < 1:
         raise ConfigError(f"frame size must be positive, got {width}x{height}")
-    ow, oh = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
-    if width > ow or height > oh:
-        raise ConfigError(
-            f"frame {width}x{height} exceeds the scene's offscreen buffer {ow}x{oh}; "
-            "use a smaller size or raise OFFSCREEN_SIZE in kr210_sim/scene.py and rebuild"
-        )
+    if width > MAX_FRAME or height > MAX_FRAME:
+        raise ConfigError(f"frame {width}x{height} is too large: at most {MAX_FRAME} px a side")
+    glob = model.vis.global_
+    glob.offwidth, glob.offheight = max(glob.offwidth, width), max(glob.offheight, height)
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:

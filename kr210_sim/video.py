@@ -39,6 +39,9 @@ QUALITY: dict[str, tuple[bool, int, int]] = {
 }
 
 
+#: Simulated length of a cycle assumed by the progress estimate before one has ended [s].
+PRIOR_CYCLE_TIME = 5.0
+
 #: H.264 settings per quality: (CRF, x264 preset). Faster presets leave more CPU to rendering.
 ENCODING: dict[str, tuple[int, str]] = {
     "fast": (23, "ultrafast"),
@@ -319,18 +322,41 @@ class FrameRecorder:
 
 
 class Progress:
-    """A one-line progress bar on stderr: frames, simulated time, cycles and the estimate."""
+    """A one-line progress bar on stderr: cycles, frames, simulated time and the estimate.
 
-    def __init__(self, total_cycles: int, stream: Any = None) -> None:
+    The estimate scales the wall time so far by the simulated time still to come: the simulated
+    length of a cycle measured so far (a prior of :data:`PRIOR_CYCLE_TIME` before the first one
+    ends) times the cycles left, plus the closing shot.
+
+    Args:
+        total_cycles: Cycles in the run.
+        stream: Where to write (stderr).
+        tail: Seconds of closing shot after the last cycle [s].
+    """
+
+    def __init__(self, total_cycles: int, stream: Any = None, tail: float = 0.0) -> None:
         self.total = total_cycles
         self.stream = stream or sys.stderr
+        self.tail = tail
         self.start = time.perf_counter()
         self.cycles_done = 0
+        self._sim_at_cycle = 0.0
         self._last = 0.0
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
-    def cycle_done(self, n: int) -> None:
+    def cycle_done(self, n: int, sim_time: float) -> None:
+        """Record that cycle ``n`` ended at simulated time ``sim_time`` [s]."""
         self.cycles_done = n
+        self._sim_at_cycle = sim_time
+
+    def eta(self, sim_time: float) -> float:
+        """Estimated wall time to finish [s]."""
+        elapsed = time.perf_counter() - self.start
+        per_cycle = self._sim_at_cycle / self.cycles_done if self.cycles_done else PRIOR_CYCLE_TIME
+        total_sim = self.total * per_cycle + self.tail
+        if sim_time <= 0.0:
+            return 0.0
+        return max(0.0, elapsed * (total_sim - sim_time) / sim_time)
 
     def __call__(self, frames: int, sim_time: float) -> None:
         now = time.perf_counter()
@@ -338,14 +364,12 @@ class Progress:
             return
         self._last = now
         elapsed = now - self.start
-        frac = (self.cycles_done + 0.5) / self.total if self.total else 1.0
-        eta = elapsed / frac - elapsed if frac > 0 else 0.0
         width = 24
         filled = int(width * min(1.0, self.cycles_done / max(self.total, 1)))
         bar = "#" * filled + "-" * (width - filled)
         line = (
             f"video [{bar}] cycle {self.cycles_done}/{self.total}  {frames} frames  "
-            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {max(eta, 0):4.0f} s"
+            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {self.eta(sim_time):4.0f} s"
         )
         if self.tty:
             self.stream.write("\r" + line)

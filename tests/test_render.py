@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import imageio.v3 as iio
+import mujoco
 import numpy as np
 import pytest
 
@@ -29,6 +30,14 @@ def test_unknown_camera_lists_the_names(tmp_path: Path) -> None:
         snapshot(tmp_path / "x.png", camera="nope")
 
 
-def test_frame_larger_than_offscreen_buffer() -> None:
-    with pytest.raises(ConfigError, match="exceeds the scene's offscreen buffer"):
-        make_renderer(load_model(), 4000, 3000)
+def test_offscreen_buffer_grows_to_fit_a_large_frame() -> None:
+    model = load_model()
+    assert (model.vis.global_.offwidth, model.vis.global_.offheight) == (1920, 1088)
+    renderer = make_renderer(model, 2560, 1440)
+    try:
+        renderer.update_scene(mujoco.MjData(model), camera="overview")
+        assert renderer.render().shape == (1440, 2560, 3)
+    finally:
+        renderer.close()
+    with pytest.raises(ConfigError, match="too large: at most 8192 px"):
+        make_renderer(model, 9000, 480)

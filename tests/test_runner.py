@@ -31,6 +31,20 @@ def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
     assert len({tuple(np.round(f[:2], 1)) for f in finals}) == 3
 
 
+@pytest.mark.slow
+def test_the_main_job_leaves_ten_cylinders_in_the_bin() -> None:
+    runner = Runner(RunConfig())  # what `run --cycles 10` runs
+    results = [runner.run_cycle(i, runner.slot_for_cycle()) for i in range(1, 11)]
+    assert [r.success for r in results] == [True] * 10, [r.detail for r in results]
+    assert {(r.slot - 1) // 3 for r in results} == {0, 1, 2}  # every row visited
+    assert sum(r.env_contact_ticks for r in results) == 0
+    assert max(r.cycle_time for r in results) < 6.0
+    cell = runner.cell
+    resting = [cell.target_pose(k)[0] for k in range(len(cell.handles.target_bodies))]
+    assert sum(in_bin(p, runner.config.cell.bin) for p in resting) == 10
+    assert max(cell.target_speed(k) for k in range(10)) < 0.05
+
+
 def _one(config: RunConfig, slot: int = 5):  # type: ignore[no-untyped-def]
     runner = Runner(config)
     return runner, runner.run_cycle(1, slot)

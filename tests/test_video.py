@@ -106,7 +106,7 @@ def test_bad_video_arguments(
     ("extra", "message"),
     [
         (["--camera", "ceiling"], "no camera 'ceiling'"),
-        (["--width", "4000"], "exceeds the scene's offscreen buffer"),
+        (["--width", "9008"], "too large: at most 8192 px"),
     ],
 )
 def test_bad_video_settings_fail_before_the_run(
@@ -164,3 +164,24 @@ def test_no_gl_backend_names_mujoco_gl(
     line = _one_line_error(capsys)
     assert "MUJOCO_GL" in line and "libegl1" in line
     assert report.exists()
+
+
+def test_progress_estimate_and_line() -> None:
+    import io
+    import time
+
+    from kr210_sim.video import Progress
+
+    stream = io.StringIO()
+    p = Progress(4, stream, tail=2.0)
+    p.start = time.perf_counter() - 10.0  # 10 s of wall time so far
+    assert p.eta(0.0) == 0.0
+    assert p.eta(11.0) == pytest.approx(10.0 * (4 * 5.0 + 2.0 - 11.0) / 11.0, rel=0.02)  # prior
+    p.cycle_done(2, 12.0)  # 6 s a cycle measured: 26 s of simulated time in all
+    assert p.eta(13.0) == pytest.approx(10.0, rel=0.02)
+    p(300, 13.0)
+    p.finish(300)
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("video [############------------] cycle 2/4  300 frames")
+    assert "eta   10 s" in lines[0]
+    assert lines[1].startswith("video: 300 frames in")
