@@ -45,6 +45,27 @@ def test_holds_home_for_two_seconds(model: mujoco.MjModel) -> None:
     assert not cell.data.warning.number.any()
 
 
+def test_random_control_raises_no_warning(model: mujoco.MjModel) -> None:
+    """Menagerie's check: step the scene under random in-range control, no data.warning fires."""
+    rng = np.random.default_rng(0)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    # Arm servos are not control-limited: draw their targets from their joints' ranges.
+    bounds = np.where(
+        model.actuator_ctrllimited[:, None].astype(bool),
+        model.actuator_ctrlrange,
+        model.jnt_range[model.actuator_trnid[:, 0]],
+    )
+    lo, hi = bounds.T
+    assert (hi > lo).all()
+    for _ in range(10):  # a new random command every 0.1 s, for 1 s
+        data.ctrl[:] = rng.uniform(lo, hi)
+        for _ in range(round(0.1 / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+    assert not data.warning.number.any(), [w.number for w in data.warning]
+    assert np.isfinite(data.qpos).all()
+
+
 def test_mujoco_pose_matches_forward_kinematics(model: mujoco.MjModel) -> None:
     data = mujoco.MjData(model)
     h = CellHandles.from_model(model)
