@@ -349,13 +349,14 @@ class Progress:
         self.cycles_done = n
         self._sim_at_cycle = sim_time
 
-    def eta(self, sim_time: float) -> float:
-        """Estimated wall time to finish [s]."""
+    def eta(self, sim_time: float) -> float | None:
+        """Estimated wall time to finish [s], or None in the first simulated second (too early
+        to tell the wall time a simulated second costs)."""
+        if sim_time < 1.0:
+            return None
         elapsed = time.perf_counter() - self.start
         per_cycle = self._sim_at_cycle / self.cycles_done if self.cycles_done else PRIOR_CYCLE_TIME
         total_sim = self.total * per_cycle + self.tail
-        if sim_time <= 0.0:
-            return 0.0
         return max(0.0, elapsed * (total_sim - sim_time) / sim_time)
 
     def __call__(self, frames: int, sim_time: float) -> None:
@@ -364,12 +365,14 @@ class Progress:
             return
         self._last = now
         elapsed = now - self.start
+        estimate = self.eta(sim_time)
+        eta = "   ?" if estimate is None else f"{estimate:4.0f} s"
         width = 24
         filled = int(width * min(1.0, self.cycles_done / max(self.total, 1)))
         bar = "#" * filled + "-" * (width - filled)
         line = (
             f"video [{bar}] cycle {self.cycles_done}/{self.total}  {frames} frames  "
-            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {self.eta(sim_time):4.0f} s"
+            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {eta}"
         )
         if self.tty:
             self.stream.write("\r" + line)
