@@ -39,10 +39,12 @@ def test_the_main_job_leaves_ten_cylinders_in_the_bin() -> None:
     assert {(r.slot - 1) // 3 for r in results} == {0, 1, 2}  # every row visited
     assert sum(r.env_contact_ticks for r in results) == 0
     assert max(r.cycle_time for r in results) < 6.0
+    # The last drop may still jostle the pile: give it 2 s, then all ten rest inside the bin.
+    runner.idle(2.0)
     cell = runner.cell
     resting = [cell.target_pose(k)[0] for k in range(len(cell.handles.target_bodies))]
     assert sum(in_bin(p, runner.config.cell.bin) for p in resting) == 10
-    assert max(cell.target_speed(k) for k in range(10)) < 0.05
+    assert max(cell.target_speed(k) for k in range(10)) < 0.01
 
 
 def _one(config: RunConfig, slot: int = 5):  # type: ignore[no-untyped-def]
@@ -135,7 +137,7 @@ def test_missed_grasp_is_retried_from_a_fresh_observation_and_recovers() -> None
 
 def test_a_target_knocked_over_in_its_slot_is_reported() -> None:
     runner = _Misperceived(RunConfig(cycles=1))
-    runner.offset = np.array([-0.06, 0.0, 0.0])  # the fingertips strike the cylinder's front
+    runner.offset = np.array([0.0, -0.06, 0.0])  # a finger pad sweeps into the cylinder's side
     r = runner.run_cycle(1, 5)
     assert r.reason == "knocked_over"
     assert "knocked over in slot 5" in r.detail
