@@ -10,14 +10,15 @@
   acceleration stay within its limits. The gripper thus follows the line exactly (up to the IK
   samples' spacing), not a joint-space blend of waypoints.
 
-Ruckig ignores position limits, so every plan is checked against them here. Ruckig's
-``intermediate_positions`` (a cloud service in the community build) is never used: multi-point
-motions are chained rest-to-rest segments.
+Ruckig ignores position limits, so every plan is checked against them here. Ruckig's waypoint
+input (a cloud service in the community build) is never used: multi-point motions are chained
+rest-to-rest segments.
 """
 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -94,7 +95,7 @@ class JointLimits:
             )
 
 
-class Trajectory:
+class Trajectory(ABC):
     """A joint trajectory starting at time 0 and ending at :attr:`duration`, at rest at both ends.
 
     Subclasses implement :meth:`sample`; times outside [0, duration] give the end states.
@@ -102,9 +103,9 @@ class Trajectory:
 
     duration: float
 
+    @abstractmethod
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Joint position [rad], velocity [rad/s] and acceleration [rad/s^2] at time ``t`` [s]."""
-        raise NotImplementedError  # abstract
 
     def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """:meth:`sample` at many times: arrays of shape (n, 6)."""
