@@ -84,16 +84,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     video = None
-    if args.video is not None:
-        video = VideoSettings(
-            path=args.video,
-            cameras=tuple(args.camera or ("overview",)),
-            width=args.width or 640,
-            height=args.height or 480,
-            fps=args.fps or 30,
-            quality=args.quality or "medium",
+    # The video options given on the command line; VideoSettings holds the defaults.
+    given: dict[str, Any] = {
+        k: v
+        for k, v in (
+            ("cameras", tuple(args.camera) if args.camera else None),
+            ("width", args.width),
+            ("height", args.height),
+            ("fps", args.fps),
+            ("quality", args.quality),
         )
-    elif args.camera or args.width or args.height or args.fps or args.quality:
+        if v is not None
+    }
+    if args.video is not None:
+        video = VideoSettings(path=args.video, **given)
+    elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
     job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene)
     out = sys.stdout
