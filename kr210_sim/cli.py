@@ -124,7 +124,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from kr210_sim.evaluate import EvalConfig, evaluate
-    from kr210_sim.paths import SCENE_PATH
     from kr210_sim.report import check_writable, write_json_atomic
     from kr210_sim.scene import load_model
 
@@ -136,7 +135,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         scene=args.scene,
     )
     report_path = check_writable(args.report)
-    load_model(args.scene or SCENE_PATH)  # a bad scene fails here, before any worker starts
+    load_model(args.scene)  # a bad scene fails here, before any worker starts
     report, interrupted = evaluate(config)
     write_json_atomic(report_path, report)
     s = report["summary"]

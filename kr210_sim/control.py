@@ -137,7 +137,6 @@ class Cell:
                 mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "right_gripper_finger_joint")
             ]
         )
-        self._m_diag = (model.M_rowadr + model.M_rownnz - 1)[h.arm_dof]
         # Slices where the indices are contiguous (much cheaper than fancy indexing per tick).
         self._arm_act = _as_slice(h.arm_act)
         self._arm_q = _as_slice(h.arm_qpos)
@@ -160,7 +159,7 @@ class Cell:
             self.data.qpos[self.handles.arm_qpos] = np.asarray(q, dtype=np.float64)
         self.grip_ctrl = float(self.model.actuator_ctrlrange[self.handles.grip_act, 0])
         self.data.qpos[self.handles.finger_qpos] = self.grip_ctrl
-        self._command(self.q, np.zeros(6), np.zeros(6))
+        self.data.ctrl[self.handles.arm_act] = self.q  # hold still: no feed-forward at rest
         self.data.ctrl[self.handles.grip_act] = self.grip_ctrl
         mujoco.mj_forward(self.model, self.data)
 
@@ -236,10 +235,6 @@ class Cell:
         return [(self.model.geom(int(a)).name, self.model.geom(int(b)).name) for a, b in g[hit]]
 
     # -- actuation -----------------------------------------------------------------------
-    def _command(self, q: FloatArray, qd: FloatArray, qdd: FloatArray) -> None:
-        inertia = self.data.M[self._m_diag]
-        self.data.ctrl[self.handles.arm_act] = q + (self.kv * qd + inertia * qdd) / self.kp
-
     def set_gripper(self, ctrl: float) -> None:
         """Set the finger servo target [m] (finger joint position; low = open)."""
         lo, hi = self.model.actuator_ctrlrange[self.handles.grip_act]

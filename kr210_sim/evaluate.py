@@ -78,7 +78,7 @@ def _init_worker(scene: Path | None, in_child: bool = False) -> None:
 
     if in_child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _PRISTINE = load_model(scene) if scene is not None else load_model()
+    _PRISTINE = load_model(scene)
 
 
 def run_episode(seed: int, randomize: bool) -> CycleResult:
@@ -232,12 +232,14 @@ def evaluate(config: EvalConfig, progress: TextIO | None = None) -> tuple[dict[s
 
     bar = _Bar(config.episodes, progress or sys.stderr)
     records: list[dict[str, Any]] = []
+    failed = 0
     wall0 = time.perf_counter()
     interrupted = False
     try:
         for _, record in _episodes(config):
             records.append(record)
-            bar.update(len(records), sum(not r["success"] for r in records))
+            failed += not record["success"]
+            bar.update(len(records), failed)
     except KeyboardInterrupt:
         interrupted = True
     wall = time.perf_counter() - wall0

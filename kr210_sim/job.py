@@ -79,6 +79,7 @@ def run_job(
         check_writable(video.path)
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
         raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
+    # Without --scene the runner loads the committed scene itself, after the URDF.
     runner = Runner(config, model=load_model(scene) if scene is not None else None)
     recorder: FrameRecorder | None = None
     progress: Progress | None = None
@@ -109,7 +110,7 @@ def run_job(
                 progress.cycle_done(i, runner.cell.time)
         if recorder is not None and recorder.error is None:
             recorder.override = recorder.tail_cameras()
-            runner.idle(video.tail if video is not None else 0.0)
+            runner.idle(recorder.settings.tail)
     except KeyboardInterrupt:
         interrupted = True
         sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")

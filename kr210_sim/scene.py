@@ -509,13 +509,13 @@ def _relpath(target: Path, start: Path) -> str:
     return os.path.relpath(target.resolve(), start.resolve())
 
 
-def load_model(path: Path | str = SCENE_PATH) -> mujoco.MjModel:
-    """Load the committed cell model.
+def load_model(path: Path | str | None = None) -> mujoco.MjModel:
+    """Load a cell model: the MJCF at ``path``, or the committed scene when None.
 
     Raises:
         SceneError: When the file is missing or MuJoCo rejects it.
     """
-    path = Path(path)
+    path = Path(path) if path is not None else SCENE_PATH
     if not path.is_file():
         raise SceneError(f"scene not found: {path} (run `python -m kr210_sim build-scene`)")
     try:

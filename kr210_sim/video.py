@@ -169,7 +169,7 @@ class _Overlay:
 class _Writer:
     """Overlays and encodes frames on a background thread."""
 
-    def __init__(self, settings: VideoSettings, frame_width: int) -> None:
+    def __init__(self, settings: VideoSettings) -> None:
         import imageio.v2 as imageio
 
         ffmpeg_exe()
@@ -192,7 +192,6 @@ class _Writer:
         self.frames = 0
         self.thread = threading.Thread(target=self._run, name="kr210-video", daemon=True)
         self.thread.start()
-        del frame_width
 
     def _run(self) -> None:
         while True:
@@ -260,7 +259,7 @@ class FrameRecorder:
         self._shadows = shadows
         self._renderer = make_renderer(self.model, s.width, s.height)
         try:
-            self._writer = _Writer(s, s.width * len(self._cameras))
+            self._writer = _Writer(s)
         except BaseException:
             self._renderer.close()
             raise
