@@ -24,6 +24,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.progress import ProgressLine, bar
 from kr210_sim.runner import CycleResult, RunConfig, Runner
 
 import mujoco  # isort: skip
@@ -192,29 +193,24 @@ def summarise_episodes(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 class _Bar:
-    """A one-line progress bar on a stream (redrawn in place on a terminal)."""
+    """The evaluation's progress line: episodes done, failures, elapsed and estimated time."""
 
     def __init__(self, total: int, stream: TextIO) -> None:
-        self.total, self.stream = total, stream
-        self.tty = bool(getattr(stream, "isatty", lambda: False)())
-        self.start = self._last = time.perf_counter()
+        self.total = total
+        self.line = ProgressLine(stream, log_interval=10.0)
+        self.line.last = self.line.start  # the first line after an interval, not at once
 
     def update(self, done: int, failed: int) -> None:
-        now = time.perf_counter()
-        if done < self.total and now - self._last < (0.2 if self.tty else 10.0):
+        if done < self.total and not self.line.due():
             return
-        self._last = now
-        elapsed = now - self.start
+        elapsed = self.line.elapsed
         eta = elapsed * (self.total - done) / done if done else 0.0
-        filled = 24 * done // self.total
-        line = (
-            f"evaluate [{'#' * filled}{'-' * (24 - filled)}] {done}/{self.total} episodes  "
+        self.line.show(
+            f"evaluate {bar(done / self.total)} {done}/{self.total} episodes  "
             f"{failed} failed  elapsed {elapsed:4.0f} s  eta {eta:4.0f} s"
         )
-        self.stream.write(("\r" + line) if self.tty else (line + "\n"))
-        if self.tty and done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
+        if done == self.total:
+            self.line.end()
 
 
 def evaluate(config: EvalConfig, progress: TextIO | None = None) -> tuple[dict[str, Any], bool]:

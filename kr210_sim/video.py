@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import os
 import queue
-import sys
 import threading
 import time
 from collections.abc import Callable
@@ -27,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.progress import ProgressLine, bar
 from kr210_sim.render import check_camera, make_renderer
 
 import mujoco  # isort: skip
@@ -335,13 +335,10 @@ class Progress:
 
     def __init__(self, total_cycles: int, stream: Any = None, tail: float = 0.0) -> None:
         self.total = total_cycles
-        self.stream = stream or sys.stderr
         self.tail = tail
-        self.start = time.perf_counter()
+        self.line = ProgressLine(stream)
         self.cycles_done = 0
         self._sim_at_cycle = 0.0
-        self._last = 0.0
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def cycle_done(self, n: int, sim_time: float) -> None:
         """Record that cycle ``n`` ended at simulated time ``sim_time`` [s]."""
@@ -353,35 +350,21 @@ class Progress:
         to tell the wall time a simulated second costs)."""
         if sim_time < 1.0:
             return None
-        elapsed = time.perf_counter() - self.start
         per_cycle = self._sim_at_cycle / self.cycles_done if self.cycles_done else PRIOR_CYCLE_TIME
         total_sim = self.total * per_cycle + self.tail
-        return max(0.0, elapsed * (total_sim - sim_time) / sim_time)
+        return max(0.0, self.line.elapsed * (total_sim - sim_time) / sim_time)
 
     def __call__(self, frames: int, sim_time: float) -> None:
-        now = time.perf_counter()
-        if now - self._last < (0.25 if self.tty else 5.0):
+        if not self.line.due():
             return
-        self._last = now
-        elapsed = now - self.start
         estimate = self.eta(sim_time)
         eta = "   ?" if estimate is None else f"{estimate:4.0f} s"
-        width = 24
-        filled = int(width * min(1.0, self.cycles_done / max(self.total, 1)))
-        bar = "#" * filled + "-" * (width - filled)
-        line = (
-            f"video [{bar}] cycle {self.cycles_done}/{self.total}  {frames} frames  "
-            f"sim {sim_time:5.1f} s  elapsed {elapsed:4.0f} s  eta {eta}"
+        self.line.show(
+            f"video {bar(self.cycles_done / max(self.total, 1))} cycle {self.cycles_done}/"
+            f"{self.total}  {frames} frames  sim {sim_time:5.1f} s  "
+            f"elapsed {self.line.elapsed:4.0f} s  eta {eta}"
         )
-        if self.tty:
-            self.stream.write("\r" + line)
-        else:
-            self.stream.write(line + "\n")
-        self.stream.flush()
 
     def finish(self, frames: int) -> None:
-        elapsed = time.perf_counter() - self.start
-        if self.tty:
-            self.stream.write("\r")
-        self.stream.write(f"video: {frames} frames in {elapsed:.1f} s\n")
-        self.stream.flush()
+        """Close the bar with the frame count and the wall time."""
+        self.line.end(f"video: {frames} frames in {self.line.elapsed:.1f} s")

@@ -174,14 +174,14 @@ def test_progress_estimate_and_line() -> None:
 
     stream = io.StringIO()
     p = Progress(4, stream, tail=2.0)
-    p.start = time.perf_counter() - 10.0  # 10 s of wall time so far
+    p.line.start = time.perf_counter() - 10.0  # 10 s of wall time so far
     assert p.eta(0.5) is None  # too early to tell
     assert p.eta(11.0) == pytest.approx(10.0 * (4 * 5.0 + 2.0 - 11.0) / 11.0, rel=0.02)  # prior
     p.cycle_done(2, 12.0)  # 6 s a cycle measured: 26 s of simulated time in all
     assert p.eta(13.0) == pytest.approx(10.0, rel=0.02)
     p(1, 0.002)  # the first frame: no estimate yet
     assert stream.getvalue().endswith("eta    ?\n")
-    p._last = 0.0
+    p.line.last = 0.0
     p(300, 13.0)
     p.finish(300)
     lines = stream.getvalue().splitlines()
