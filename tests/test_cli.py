@@ -6,7 +6,9 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -150,18 +152,14 @@ def test_missing_or_malformed_urdf(tmp_path: Path, urdf: str | None, message: st
 
 
 def test_ctrl_c_during_a_run_writes_the_cycles_done(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    ctrl_c_on_call: Callable[[Callable[..., Any], int], Callable[..., Any]],
 ) -> None:
     from kr210_sim.runner import Runner
 
-    real = Runner.run_cycle
-
-    def interrupted_third(self: Runner, index: int, slot: int):  # type: ignore[no-untyped-def]
-        if index == 3:
-            raise KeyboardInterrupt
-        return real(self, index, slot)
-
-    monkeypatch.setattr(Runner, "run_cycle", interrupted_third)
+    monkeypatch.setattr(Runner, "run_cycle", ctrl_c_on_call(Runner.run_cycle, 3))
     report = tmp_path / "run.json"
     assert main(["run", "--cycles", "5", "--report", str(report)]) == 130
     data = json.loads(report.read_text())

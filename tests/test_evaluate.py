@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -94,19 +96,12 @@ def test_failures_are_counted_with_example_seeds() -> None:
 
 
 def test_ctrl_c_writes_the_episodes_done_and_exits_130(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    ctrl_c_on_call: Callable[[Callable[..., Any], int], Callable[..., Any]],
 ) -> None:
-    real = ev.run_episode
-    calls = 0
-
-    def interrupted_third(seed: int, randomize: bool):  # type: ignore[no-untyped-def]
-        nonlocal calls
-        calls += 1
-        if calls == 3:
-            raise KeyboardInterrupt
-        return real(seed, randomize)
-
-    monkeypatch.setattr(ev, "run_episode", interrupted_third)
+    monkeypatch.setattr(ev, "run_episode", ctrl_c_on_call(ev.run_episode, 3))
     report = tmp_path / "eval.json"
     assert main(["evaluate", "--episodes", "5", "--report", str(report)]) == 130
     data = json.loads(report.read_text())
