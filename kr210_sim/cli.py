@@ -1,8 +1,9 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes:
-0 success, 1 a run below its pass bar, 2 a usage error or a failure with a one-line message,
-130 interrupted (the report of the cycles completed so far is still written).
+Commands: ``run`` (the main job), ``evaluate``, ``build-meshes``, ``build-scene``, ``snapshot``.
+Exit codes: 0 success, 1 a run below its pass bar, 2 a usage error or a failure with a one-line
+message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
+completed so far is still written).
 """
 
 from __future__ import annotations
@@ -14,7 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim import __version__
+from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
+from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
@@ -43,6 +46,14 @@ def _check(ok: bool, message: str) -> None:
 def _positive_int(text: str) -> int:
     value: int = _parsed(text, int, "a whole number")
     _check(value >= 1, f"must be at least 1, got {value}")
+    return value
+
+
+def _cycles(text: str) -> int:
+    from kr210_sim.runner import MAX_CYCLES
+
+    value = _positive_int(text)
+    _check(value <= MAX_CYCLES, f"at most {MAX_CYCLES} in one run (use evaluate), got {value}")
     return value
 
 
@@ -106,14 +117,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out.write(summary_table(summary) + "\n")
     out.write(f"  report: {job.report_path}\n")
     if video is not None and job.video_error is None:
-        out.write(f"  video: {video.path} ({job.video_frames} frames)\n")
+        written = f"({job.video_frames} frames)" if job.video_frames else "not written (no frames)"
+        out.write(f"  video: {video.path} {written}\n")
     if job.plot_paths:
         out.write(f"  plots: {', '.join(str(p) for p in job.plot_paths)}\n")
+    if job.interrupted is not None:
+        if job.video_error is not None:
+            sys.stderr.write(f"kr210_sim: error: {job.video_error}\n")
+        return exit_code(job.interrupted)
     if job.video_error is not None:
         sys.stderr.write(f"kr210_sim: error: {job.video_error} (the report was written)\n")
         return 2
-    if job.interrupted:
-        return 130
     passed = summary["success_rate"] >= args.min_success
     out.write(
         f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
@@ -196,7 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     run = sub.add_parser("run", help="run and score pick-and-place cycles")
-    run.add_argument("--cycles", type=_positive_int, default=10, help="cycles to run (10)")
+    run.add_argument("--cycles", type=_cycles, default=10, help="cycles to run (10)")
     run.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
     run.add_argument(
         "--slot",
@@ -273,12 +287,29 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI and return its exit code."""
+    """Run the CLI and return its exit code.
+
+    While a command runs, stdout and stderr are :class:`~kr210_sim.console.SafeStream` objects (a
+    closed pipe or a full device drops console output, never the run) and SIGTERM / SIGHUP
+    stop it like Ctrl-C (:mod:`kr210_sim.interrupts`): exit 130, 143 or 129.
+    """
+    stdout, stderr = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = SafeStream(stdout, "stdout"), SafeStream(stderr, "stderr")
+    try:
+        with terminate_as_interrupt():
+            return _main(argv)
+    finally:
+        sys.stdout.flush()
+        sys.stdout, sys.stderr = stdout, stderr
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
+        stream=sys.stderr,
     )
     if getattr(args, "out", "") is None and args.command == "build-scene":
         from kr210_sim.paths import SCENES_DIR
@@ -289,6 +320,6 @@ def main(argv: list[str] | None = None) -> int:
     except Kr210SimError as exc:
         sys.stderr.write(f"kr210_sim: error: {exc}\n")
         return 2
-    except KeyboardInterrupt:
-        sys.stderr.write("kr210_sim: interrupted\n")
-        return 130
+    except KeyboardInterrupt as exc:
+        sys.stderr.write(f"kr210_sim: interrupted ({signal_name(exc)})\n")
+        return exit_code(exc)

@@ -33,7 +33,9 @@ class TargetSpec:
         radius: Cylinder radius in [m].
         length: Cylinder length (height) in [m].
         mass: Mass in [kg].
-        friction: Sliding friction coefficient (MuJoCo takes the max of the two geoms in contact).
+        friction: Sliding friction coefficient. The targets' contact priority (1) is above the
+            fingers', the shelf's and the floor's (0), so this is the coefficient of every
+            contact the target makes with them; only the bin floor (priority 2) uses its own.
     """
 
     radius: float = 0.05

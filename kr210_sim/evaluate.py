@@ -108,7 +108,7 @@ def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
         "cycle_time": r.cycle_time,
         "creep_mm": r.creep_mm,
         "max_tracking_error_deg": max(r.max_tracking_error_deg),
-        "max_gripper_error_mm": r.max_gripper_error_mm,
+        "max_gripper_tracking_error_mm": r.max_gripper_tracking_error_mm,
         "grasp_attempts": r.grasp_attempts,
         "target": {
             "position": [round(x, 6) for x in r.target.position],

@@ -1,10 +1,12 @@
 """The main job: run N cycles, print them, write the report, optionally film and plot the run.
 
 This is what ``python -m kr210_sim run`` does, as a function the CLI and tests call. Order of
-work: check every output path first (a usage error costs nothing), run the cycles (with the
-video recorder as a step hook), append the closing bin shot, then write the report, the plots
-and finish the video. The report is written even when the video fails or the run is
-interrupted (Ctrl-C): the failure is reported afterwards.
+work: check every output path first (a usage error costs nothing: unwritable paths and outputs
+that clash with each other or with an input are refused before anything runs), run the cycles
+(with the video recorder as a step hook), append the closing bin shot, then write the report,
+finish the video and write the plots. The report is written even when the video fails or the
+run is interrupted (Ctrl-C, SIGTERM): the failure is reported afterwards, and an interrupted
+video keeps the frames recorded so far.
 """
 
 from __future__ import annotations
@@ -16,7 +18,11 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kr210_sim.errors import ConfigError, RenderError
-from kr210_sim.report import build_report, check_writable, cycle_line, write_json_atomic
+from kr210_sim.interrupts import signal_name
+from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
+from kr210_sim.paths import SCENE_PATH, URDF_PATH
+from kr210_sim.plots import PLOT_NAMES
+from kr210_sim.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
 from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
@@ -29,7 +35,7 @@ class JobResult:
     Attributes:
         report: The JSON-ready report.
         report_path: Where it was written.
-        interrupted: True when Ctrl-C stopped the run early.
+        interrupted: The interrupt that stopped the run early (Ctrl-C, SIGTERM), or None.
         video_frames: Frames written to the video (0 without one).
         video_error: The one-line reason the video failed, or None.
         plot_paths: PNG plots written.
@@ -38,11 +44,38 @@ class JobResult:
 
     report: dict[str, Any]
     report_path: Path
-    interrupted: bool = False
+    interrupted: KeyboardInterrupt | None = None
     video_frames: int = 0
     video_error: str | None = None
     plot_paths: list[Path] = field(default_factory=list)
     sim_time: float = 0.0
+
+
+def check_outputs(
+    report_path: Path,
+    video: VideoSettings | None,
+    plots_dir: Path | None,
+    scene: Path | None,
+) -> None:
+    """Refuse, before anything runs, outputs that cannot be written or that clash.
+
+    Raises:
+        ConfigError: An output path is unwritable, two outputs name one file, or an output names
+            an input (the scene, the URDF).
+    """
+    check_writable(report_path)
+    outputs: dict[str, Path | None] = {"--report": report_path}
+    if video is not None:
+        check_writable(video.path)
+        if is_stream(video.path):
+            raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
+        outputs["--video"] = video.path
+    if plots_dir is not None:
+        check_folder(plots_dir, PLOT_NAMES)
+        outputs.update({f"--plots {name}": plots_dir / name for name in PLOT_NAMES})
+    check_distinct(
+        outputs, {"--scene": scene if scene is not None else SCENE_PATH, "the URDF": URDF_PATH}
+    )
 
 
 def run_job(
@@ -67,20 +100,22 @@ def run_job(
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
-        could not be made.
+        could not be made; ``interrupted`` when Ctrl-C or SIGTERM stopped the cycles (the report
+        then holds those finished, and the video the frames so far).
 
     Raises:
-        ConfigError: When an output path cannot be written (checked before any cycle runs).
+        ConfigError: When an output path cannot be written or clashes with another path (checked
+            before any cycle runs).
         SceneError: When the scene cannot be loaded.
     """
     out = out or sys.stdout
-    report_path = check_writable(report_path)
-    if video is not None:
-        check_writable(video.path)
-    if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
-        raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
+    check_outputs(report_path, video, plots_dir, scene)
     # Without --scene the runner loads the committed scene itself, after the URDF.
-    runner = Runner(config, model=load_model(scene) if scene is not None else None)
+    runner = Runner(
+        config,
+        model=load_model(scene) if scene is not None else None,
+        keep_recordings=plots_dir is not None,
+    )
     recorder: FrameRecorder | None = None
     progress: Progress | None = None
     video_error: str | None = None
@@ -100,7 +135,7 @@ def run_job(
             runner.cell.hooks.append(recorder)
 
     wall0 = time.perf_counter()
-    interrupted = False
+    interrupted: KeyboardInterrupt | None = None
     try:
         for i in range(1, config.cycles + 1):
             cycle = runner.run_cycle(i, runner.slot_for_cycle())
@@ -111,11 +146,16 @@ def run_job(
         if recorder is not None and recorder.error is None:
             recorder.override = recorder.tail_cameras()
             runner.idle(recorder.settings.tail)
-    except KeyboardInterrupt:
-        interrupted = True
-        sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.interrupts)
+        interrupted = exc
+        sys.stderr.write(
+            f"kr210_sim: interrupted after {len(runner.results)} cycles ({signal_name(exc)}); "
+            "writing the report of those\n"
+        )
     wall = time.perf_counter() - wall0
-    report = build_report(config, runner.results, wall, interrupted=interrupted)
+    report = build_report(
+        config, runner.results, wall, interrupted=interrupted, events=runner.events
+    )
     write_json_atomic(report_path, report)
     result = JobResult(
         report, report_path, interrupted, video_error=video_error, sim_time=runner.cell.time

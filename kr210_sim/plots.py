@@ -1,8 +1,8 @@
 """PNG plots of a run (matplotlib, headless): what a report's numbers look like over time.
 
 * ``tracking_error.png``: |q_des - q| per joint over simulated time [deg].
-* ``gripper_error.png``: gripper position error against the plan, one curve per cycle [mm]
-  (the original exercise's "error plot").
+* ``gripper_error.png``: the joint tracking error seen at the gripper (gripper position at the
+  measured joints against the commanded ones), one curve per cycle [mm].
 * ``joint_limits.png``: joint positions and velocities against their limits.
 * ``cycle_times.png``: cycle time per cycle, coloured by outcome.
 """
@@ -14,11 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from kr210_sim import kinematics
 from kr210_sim.control import Recording
-from kr210_sim.errors import ConfigError
+from kr210_sim.metrics import gripper_tracking_error_mm
+from kr210_sim.outputs import atomic_path, check_folder
 from kr210_sim.robot import ARM_JOINTS, RobotDescription
 from kr210_sim.runner import CycleResult
+
+#: The files :func:`write_plots` writes.
+PLOT_NAMES = ("tracking_error.png", "gripper_error.png", "joint_limits.png", "cycle_times.png")
 
 OUTCOME_COLOURS = {
     None: "#2a9d4b",
@@ -47,20 +50,15 @@ def write_plots(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"cannot create the plot folder {out}: {exc.strerror}") from exc
+    out = check_folder(out_dir, PLOT_NAMES)
     arrays = [rec.arrays() for rec in recordings]
     paths: list[Path] = []
 
     def save(fig: object, name: str) -> None:
         path = out / name
         try:
-            fig.savefig(path, dpi=110)  # type: ignore[attr-defined]
-        except OSError as exc:
-            raise ConfigError(f"cannot write {path}: {exc.strerror}") from exc
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, dpi=110, format="png")  # type: ignore[attr-defined]
         finally:
             plt.close(fig)  # type: ignore[arg-type]
         paths.append(path)
@@ -84,13 +82,11 @@ def write_plots(
     for r, a in zip(results, arrays, strict=True):
         if not len(a["t"]):
             continue
-        planned = kinematics.forward(a["q_des"])[:, :3, 3]
-        actual = kinematics.forward(a["q"])[:, :3, 3]
-        err = np.linalg.norm(actual - planned, axis=1) * 1000.0
+        err = gripper_tracking_error_mm(a["q"], a["q_des"])
         ax.plot(a["t"] - a["t"][0], err, lw=0.8, label=f"cycle {r.index} (slot {r.slot})")
     ax.set_xlabel("time in cycle [s]")
-    ax.set_ylabel("gripper position error [mm]")
-    ax.set_title("Gripper position against the plan")
+    ax.set_ylabel("gripper tracking error [mm]")
+    ax.set_title("Joint tracking error seen at the gripper (measured vs commanded joints)")
     ax.grid(alpha=0.3)
     if results:
         ax.legend(fontsize=7, ncol=2)

@@ -1,7 +1,7 @@
 """Run reports: the JSON record, the per-cycle line and the summary table.
 
-Reports are written atomically (a temporary file in the same folder, then ``os.replace``), so an
-interrupted write never leaves a half-written report behind. Fields that depend on the machine
+Reports are written atomically (:mod:`kr210_sim.outputs`), so an interrupted write never leaves a
+half-written report behind. Fields that depend on the machine
 (wall times, real-time factor) are collected under keys named ``wall_*`` / ``*_wall`` so that
 determinism checks can drop them.
 """
@@ -9,9 +9,7 @@ determinism checks can drop them.
 from __future__ import annotations
 
 import json
-import os
 import platform
-import tempfile
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, is_dataclass
@@ -21,8 +19,22 @@ from typing import Any
 import numpy as np
 
 from kr210_sim import __version__
-from kr210_sim.errors import ConfigError
+from kr210_sim.interrupts import signal_name
+from kr210_sim.outputs import check_writable, write_text_atomic
 from kr210_sim.runner import CycleResult, RunConfig
+from kr210_sim.targets import Event
+
+__all__ = [
+    "WALL_KEYS",
+    "build_report",
+    "check_writable",
+    "cycle_line",
+    "strip_wall",
+    "summarise",
+    "summary_table",
+    "versions",
+    "write_json_atomic",
+]
 
 #: Keys whose values depend on the machine or on how the work was spread over processes, not on
 #: the simulation (``execution``: worker count and wall time of an evaluation).
@@ -73,7 +85,9 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         "max_tracking_error_deg": max(
             (max(r.max_tracking_error_deg) for r in results), default=0.0
         ),
-        "max_gripper_error_mm": max((r.max_gripper_error_mm for r in results), default=0.0),
+        "max_gripper_tracking_error_mm": max(
+            (r.max_gripper_tracking_error_mm for r in results), default=0.0
+        ),
         "max_creep_mm": max(grasped, default=0.0),
         "env_contact_ticks": sum(r.env_contact_ticks for r in results),
         "grasp_retries": sum(max(r.grasp_attempts - 1, 0) for r in results),
@@ -103,60 +117,42 @@ def build_report(
     config: RunConfig,
     results: Sequence[CycleResult],
     wall_time: float | None,
-    interrupted: bool = False,
+    interrupted: BaseException | bool | None = None,
+    events: Sequence[Event] = (),
 ) -> dict[str, Any]:
-    """The JSON-ready report of a run: config, per-cycle records, summary, versions."""
+    """The JSON-ready report of a run.
+
+    Args:
+        config: The run's settings.
+        results: The cycles that finished.
+        wall_time: Wall-clock time of the run [s], if known.
+        interrupted: The interrupt that stopped the run (or True), None/False when it ran to
+            the end.
+        events: What was done to the cylinders between cycles (bin emptied, shelf cleared).
+
+    Returns:
+        config, per-cycle records, events, summary, ``interrupted`` (bool) and
+        ``interrupted_by`` (the signal's name or null), versions.
+    """
     return {
         "kind": "kr210_sim.run",
         "config": _jsonable(config),
         "cycles": [_jsonable(r.to_dict()) for r in results],
+        "events": [e.to_dict() for e in events],
         "summary": summarise(results, wall_time),
-        "interrupted": interrupted,
+        "interrupted": bool(interrupted),
+        "interrupted_by": signal_name(interrupted if interrupted is not True else None)
+        if interrupted
+        else None,
         "versions": versions(),
     }
 
 
-def check_writable(path: Path | str) -> Path:
-    """Fail early, with a one-line message, when ``path`` cannot be written.
-
-    Raises:
-        ConfigError: When the folder is missing or not writable, or ``path`` is a folder.
-    """
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    if p.is_dir():
-        raise ConfigError(f"{p} is a folder; give a file path")
-    if parent.exists() and not parent.is_dir():
-        raise ConfigError(f"cannot write {p}: {parent} is a file, not a folder")
-    if not parent.exists():
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ConfigError(f"cannot create the folder {parent}: {exc.strerror}") from exc
-    if not os.access(parent, os.W_OK):
-        raise ConfigError(f"cannot write to {parent}: permission denied")
-    return p
-
-
 def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
-    """Write ``payload`` as JSON to ``path`` atomically (sorted keys, 2-space indent)."""
-    p = check_writable(path)
+    """Write ``payload`` as JSON to ``path`` atomically (sorted keys, 2-space indent; see
+    :mod:`kr210_sim.outputs` for links, devices and file modes)."""
     text = json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
-    except OSError as exc:
-        raise ConfigError(f"cannot write {p}: {exc.strerror}") from exc
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, p)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise ConfigError(f"cannot write {p}: {exc.strerror}") from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return p
+    return write_text_atomic(path, text)
 
 
 def strip_wall(obj: Any) -> Any:
@@ -192,7 +188,10 @@ def summary_table(summary: dict[str, Any]) -> str:
             f"{summary['cycle_time_mean']:.2f} / {summary['cycle_time_max']:.2f} s",
         ),
         ("worst joint tracking error", f"{summary['max_tracking_error_deg']:.3f} deg"),
-        ("worst gripper error vs plan", f"{summary['max_gripper_error_mm']:.2f} mm"),
+        (
+            "worst tracking error at gripper",
+            f"{summary['max_gripper_tracking_error_mm']:.2f} mm",
+        ),
         ("worst creep in the grip", f"{summary['max_creep_mm']:.2f} mm"),
         ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
     ]

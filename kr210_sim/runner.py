@@ -8,7 +8,6 @@ plan (:mod:`kr210_sim.task`) -> execute (:mod:`kr210_sim.control`) -> monitor ->
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -20,16 +19,19 @@ from kr210_sim import kinematics
 from kr210_sim.config import CellConfig, MotionConfig, RandomizationSpec, TargetSpec
 from kr210_sim.control import Cell, Recording, hold
 from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
+from kr210_sim.metrics import gripper_tracking_error_mm
 from kr210_sim.robot import RobotDescription, load_robot
 from kr210_sim.scene import load_model
 from kr210_sim.scoring import (
-    REST_SPEED,
     TOPPLED_TILT_DEG,
     CycleObservation,
     Outcome,
     in_bin,
+    is_still,
+    rest_window_ticks,
     score,
 )
+from kr210_sim.targets import Event, TargetPool
 from kr210_sim.task import Move, Planner
 
 import mujoco  # isort: skip
@@ -39,14 +41,20 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Time a freshly spawned target is left to settle before it is observed [s].
 SPAWN_SETTLE = 0.1
-#: Longest wait for a released target to come to rest in the bin [s].
-SETTLE_TIMEOUT = 3.0
+#: Longest wait for a released target to come to rest (see :func:`kr210_sim.scoring.is_still`)
+#: [s].
+SETTLE_TIMEOUT = 4.0
+#: Most cycles one run takes (about 12 h of simulated time, 15 min of wall time); use
+#: ``evaluate`` for more.
+MAX_CYCLES = 10_000
 #: Finger speed below which a closing grip counts as settled [m/s].
 GRIP_SETTLED_SPEED = 0.005
 #: Largest mismatch between the finger gap and the target diameter for a confirmed grip [m].
 GRIP_GAP_TOLERANCE = 0.006
 #: Displacement of the target relative to the gripper that counts as lost [m].
 LOST_DISTANCE = 0.03
+#: Simulated time the arm waits while an event between cycles is shown [s].
+EVENT_SHOW = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,8 +82,11 @@ class RunConfig:
     randomization: RandomizationSpec = field(default_factory=RandomizationSpec)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.cycles, int) or self.cycles < 1:
-            raise ConfigError(f"cycles must be a whole number >= 1, got {self.cycles!r}")
+        if not isinstance(self.cycles, int) or not 1 <= self.cycles <= MAX_CYCLES:
+            raise ConfigError(
+                f"cycles must be a whole number from 1 to {MAX_CYCLES}, got {self.cycles!r} "
+                "(use evaluate for more)"
+            )
         if not isinstance(self.slot, int) or not 0 <= self.slot <= 9:
             raise ConfigError(f"slot must be 0 (random) or 1-9, got {self.slot!r}")
         if self.grasp_attempts < 1:
@@ -111,8 +122,9 @@ class CycleResult:
         detail: One sentence on what went wrong (empty on success).
         cycle_time: Simulated time from the first move to the end of the return move [s].
         max_tracking_error_deg: Largest |q_des - q| per joint over the cycle [deg].
-        max_gripper_error_mm: Largest distance of gripper_link (forward kinematics of the measured
-            joints) from its planned position (of the commanded joints) [mm].
+        max_gripper_tracking_error_mm: The joint tracking error seen at the gripper: largest
+            distance between gripper_link at the measured joints and at the commanded joints
+            (forward kinematics of both) [mm]. Not an IK error: the plan's poses are exact.
         creep_mm: Largest displacement of the target relative to the gripper between the
             confirmed grip and the release [mm].
         grasp_attempts: Grasp attempts made.
@@ -131,7 +143,7 @@ class CycleResult:
     detail: str
     cycle_time: float
     max_tracking_error_deg: tuple[float, ...]
-    max_gripper_error_mm: float
+    max_gripper_tracking_error_mm: float
     creep_mm: float
     grasp_attempts: int
     env_contact_ticks: int
@@ -178,23 +190,6 @@ def sample_target(rng: np.random.Generator, config: RunConfig, cycle_slot: int) 
     return TargetSample(cycle_slot, position, yaw, spec)
 
 
-def _set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetSpec) -> None:
-    """Give target ``index`` the size, mass and friction of ``spec`` (model fields)."""
-    h = cell.handles
-    g, b = int(h.target_geoms[index]), int(h.target_bodies[index])
-    r, half = spec.radius, spec.length / 2.0
-    model.geom_size[g, :2] = (r, half)
-    model.geom_rbound[g] = math.hypot(r, half)
-    model.geom_aabb[g] = (0, 0, 0, r, r, half)
-    model.geom_friction[g, 0] = spec.friction
-    model.body_mass[b] = spec.mass
-    ixx = spec.mass * (3 * r * r + spec.length**2) / 12.0
-    model.body_inertia[b] = (ixx, ixx, spec.mass * r * r / 2.0)
-    # Recompute the derived constants (inverse weights the constraint solver scales by) on a
-    # scratch MjData, so the live state is untouched.
-    mujoco.mj_setConst(model, mujoco.MjData(model))
-
-
 class Runner:
     """Runs cycles in one simulated cell; the cell persists across cycles (the bin fills up).
 
@@ -202,6 +197,9 @@ class Runner:
         config: Run settings.
         model: A compiled cell model (default: the committed scene).
         robot: The robot description (default: the committed URDF).
+        keep_recordings: Keep every cycle's per-tick :class:`Recording` in :attr:`recordings`
+            (for plots; about 0.9 MB a cycle). Without it memory stays flat however many cycles
+            run.
     """
 
     def __init__(
@@ -209,6 +207,7 @@ class Runner:
         config: RunConfig,
         model: mujoco.MjModel | None = None,
         robot: RobotDescription | None = None,
+        keep_recordings: bool = False,
     ) -> None:
         self.config = config
         self.robot = robot or load_robot()
@@ -220,7 +219,9 @@ class Runner:
         self.cell.reset(self.planner.ready_q)
         self.q_cmd = self.planner.ready_q.copy()
         self.results: list[CycleResult] = []
+        self.keep_recordings = keep_recordings
         self.recordings: list[Recording] = []
+        self.targets = TargetPool(self.cell, config.cell)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -228,24 +229,29 @@ class Runner:
             "done": 0,
             "successes": 0,
             "phase": "idle",
+            "event": "",
         }
-        self._next_target = 0
 
     # -- one cycle -----------------------------------------------------------------------
+    @property
+    def events(self) -> list[Event]:
+        """What was done to the cylinders between cycles (bin emptied, shelf cleared)."""
+        return self.targets.events
+
     def _spawn(self, sample: TargetSample) -> int:
-        """Place a fresh target (or recycle the oldest) at the sample's pose; return its index."""
-        cell = self.cell
-        k = self._next_target % len(cell.handles.target_bodies)
-        self._next_target += 1
-        _set_target_spec(self.model, cell, k, sample.spec)
-        a, dof = int(cell.handles.target_qpos[k]), int(cell.handles.target_dof[k])
-        d = cell.data
-        d.qpos[a : a + 3] = sample.position
-        d.qpos[a + 3 : a + 7] = (math.cos(sample.yaw / 2), 0.0, 0.0, math.sin(sample.yaw / 2))
-        d.qvel[dof : dof + 6] = 0.0
-        cell.active_target = k
-        mujoco.mj_forward(self.model, d)
-        return k
+        """Place a spare target at the sample's pose; return its index. When no spare is left,
+        the bin is emptied first: an event, shown for :data:`EVENT_SHOW` s of simulated time."""
+        if not self.targets.spare:
+            self._show(self.targets.restock(int(self.status["cycle"])))  # type: ignore[call-overload]
+        return self.targets.spawn(sample.position, sample.yaw, sample.spec)
+
+    def _show(self, event: Event) -> None:
+        """Hold the arm still while the overlay names ``event`` (the video shows it)."""
+        log.info("before cycle %d: %s", event.before_cycle, event.detail)
+        phase = self.status["phase"]
+        self.status.update(phase=event.kind.value, event=event.detail)
+        self.cell.track(hold(self.q_cmd, EVENT_SHOW), None, event.kind.value)
+        self.status.update(phase=phase, event="")
 
     def observe_target(self, index: int) -> FloatArray:
         """The target's position [m] as the planner perceives it (the simulator's pose: a
@@ -352,8 +358,8 @@ class Runner:
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
-                spots = cfg.motion.drop_spots
-                dx, dy = spots[(index - 1) % len(spots)]
+                spots = cfg.motion.drop_spots  # in turn, from the first after the bin is emptied
+                dx, dy = spots[(len(self.targets.in_play) - 1) % len(spots)]
                 bx, by = cfg.cell.bin.center_xy
                 carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy), sample.spec.radius)
                 self._track(carry, rec, phases)
@@ -375,9 +381,15 @@ class Runner:
                     log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
-        self._hold(
-            SETTLE_TIMEOUT, rec, "settle", phases, until=lambda c: c.target_speed() < REST_SPEED
-        )
+        still = 0
+        window = rest_window_ticks(self.model.opt.timestep)
+
+        def at_rest(c: Cell) -> bool:
+            nonlocal still
+            still = still + 1 if is_still(c.target_speed(), c.target_spin()) else 0
+            return still >= window
+
+        self._hold(SETTLE_TIMEOUT, rec, "settle", phases, until=at_rest)
         obs = CycleObservation(
             planned=planned,
             grasp_confirmed=confirmed,
@@ -386,6 +398,8 @@ class Runner:
             robot_env_contacts=int(sum(int(seg["env_contact"].sum()) for seg in rec.segments)),
             target_position=cell.target_pose(k)[0],
             target_speed=cell.target_speed(k),
+            target_spin=cell.target_spin(k),
+            rested_for=still * float(self.model.opt.timestep),
             target_toppled=toppled
             or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
@@ -410,26 +424,20 @@ class Runner:
             obs,
         )
         self.results.append(result)
-        self.recordings.append(rec)
+        if self.keep_recordings:
+            self.recordings.append(rec)
         self.status["done"] = len(self.results)
         self.status["successes"] = sum(r.success for r in self.results)
-        self._clear_shelf(k)
+        self._clear_shelf(k, index)
         return result
 
-    def _clear_shelf(self, k: int) -> None:
-        """Park a target left on the shelf after a failed cycle, so the slot is free again."""
-        cell = self.cell
-        pos, _ = cell.target_pose(k)
+    def _clear_shelf(self, k: int, index: int) -> None:
+        """Take a target left on the shelf after failed cycle ``index`` off it (an event), so the
+        slot is free again."""
+        pos, _ = self.cell.target_pose(k)
         s = self.config.cell.shelf
         if pos[0] > s.x_front - 0.2 and pos[2] > s.board_tops[0] - 0.1:
-            a = int(cell.handles.target_qpos[k])
-            park = self.config.cell.park_position(k)
-            cell.data.qpos[a : a + 3] = park
-            cell.data.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
-            dof = int(cell.handles.target_dof[k])
-            cell.data.qvel[dof : dof + 6] = 0.0
-            mujoco.mj_forward(self.model, cell.data)
-            log.info("target %d left on the shelf was cleared to the park area", k)
+            self._show(self.targets.clear(k, index + 1, f"left there by failed cycle {index}"))
 
     def _summarise(
         self,
@@ -449,9 +457,7 @@ class Runner:
     ) -> CycleResult:
         arr = rec.arrays()
         track_deg = np.degrees(np.abs(arr["q"] - arr["q_des"]).max(axis=0))
-        planned_pos = kinematics.forward(arr["q_des"])[:, :3, 3]
-        actual_pos = kinematics.forward(arr["q"])[:, :3, 3]
-        grip_err = np.linalg.norm(actual_pos - planned_pos, axis=1).max() * 1000.0
+        grip_err = gripper_tracking_error_mm(arr["q"], arr["q_des"]).max(initial=0.0)
         creep = 0.0
         if grip_ref is not None and i_grip >= 0:
             end = i_release if i_release > i_grip else len(arr["t"])
@@ -466,7 +472,7 @@ class Runner:
             detail=detail,
             cycle_time=round(float(cycle_time), 6),
             max_tracking_error_deg=tuple(round(float(x), 6) for x in track_deg),
-            max_gripper_error_mm=round(float(grip_err), 6),
+            max_gripper_tracking_error_mm=round(float(grip_err), 6),
             creep_mm=round(creep, 6),
             grasp_attempts=attempts,
             env_contact_ticks=obs.robot_env_contacts,
@@ -503,5 +509,8 @@ def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: Cel
         return f"the target left the fingers before the release; it lies at {p}"
     if outcome is Outcome.MISSED_BIN:
         where = "inside" if in_bin(obs.target_position, cell.bin) else "outside"
-        return f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s"
+        return (
+            f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
+            f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
+        )
     return outcome.value

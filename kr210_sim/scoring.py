@@ -27,9 +27,23 @@ class Outcome(StrEnum):
     MISSED_BIN = "missed_bin"
 
 
-#: Largest linear speed of a target counted as resting, in [m/s] (a cylinder lying on its side
-#: may still roll slowly across the bin floor).
-REST_SPEED = 0.05
+#: Largest linear speed of a target counted as still [m/s].
+REST_SPEED = 0.02
+#: Largest angular speed of a target counted as still [rad/s] (a cylinder rocking on its rim or
+#: rolling on its side can move its centre slowly while it turns fast).
+REST_SPIN = 0.2
+#: How long a target must stay still to count as at rest [s].
+REST_WINDOW = 0.25
+
+
+def is_still(speed: float, spin: float) -> bool:
+    """Whether a target moving at ``speed`` [m/s] and turning at ``spin`` [rad/s] is still."""
+    return speed < REST_SPEED and spin < REST_SPIN
+
+
+def rest_window_ticks(timestep: float) -> int:
+    """Consecutive still ticks of ``timestep`` [s] that make :data:`REST_WINDOW`."""
+    return max(1, round(REST_WINDOW / timestep))
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,6 +59,8 @@ class CycleObservation:
         robot_env_contacts: Number of control ticks with a robot-shelf or robot-bin contact.
         target_position: Final target centre in [m], shape (3,).
         target_speed: Final linear speed of the target in [m/s].
+        target_spin: Final angular speed of the target in [rad/s].
+        rested_for: How long the target had been still (:func:`is_still`) at the end [s].
         target_toppled: True when the grip failed and the target was left tipped over (see
             :data:`TOPPLED_TILT_DEG`).
     """
@@ -56,6 +72,8 @@ class CycleObservation:
     robot_env_contacts: int
     target_position: npt.NDArray[np.float64]
     target_speed: float
+    target_spin: float
+    rested_for: float
     target_toppled: bool = False
 
 
@@ -85,10 +103,10 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
     """Score a cycle.
 
     A cycle succeeds when the target rests inside the bin (centre inside the walls, below the
-    rim, speed below :data:`REST_SPEED`) after the gripper opened, with no robot contact with
-    the shelf or the bin. Otherwise the first failure in this order is returned: unreachable,
-    collision, knocked_over (no grip, target tipped over), grasp_missed, dropped_in_transit,
-    missed_bin.
+    rim, still (:func:`is_still`) for :data:`REST_WINDOW`) after the gripper opened, with no
+    robot contact with the shelf or the bin. Otherwise the first failure in this order is
+    returned: unreachable, collision, knocked_over (no grip, target tipped over), grasp_missed,
+    dropped_in_transit, missed_bin.
 
     Args:
         obs: What happened.
@@ -105,6 +123,6 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
         return Outcome.KNOCKED_OVER if obs.target_toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
-    if not in_bin(obs.target_position, bin_spec) or obs.target_speed > REST_SPEED:
+    if not in_bin(obs.target_position, bin_spec) or obs.rested_for < REST_WINDOW - 1e-9:
         return Outcome.MISSED_BIN
     return Outcome.SUCCESS

@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.outputs import commit, discard, temp_beside
 from kr210_sim.progress import ProgressLine, bar
 from kr210_sim.render import check_camera, make_renderer
 
@@ -85,26 +86,71 @@ class VideoSettings:
             raise ConfigError(f"quality must be one of {', '.join(QUALITY)}, got {self.quality!r}")
         if self.path.suffix.lower() != ".mp4":
             raise ConfigError(f"video path must end in .mp4, got {self.path}")
+        tiled = self.width * len(self.cameras)
+        if tiled > MAX_ENCODE_SIDE:
+            raise ConfigError(
+                f"{len(self.cameras)} views of {self.width} px tile a {tiled} px wide video; "
+                f"the H.264 encoder takes at most {MAX_ENCODE_SIDE}: lower --width or the cameras"
+            )
+
+
+#: Largest frame side the H.264 encoder (libx264) accepts [px]; measured: 16384 x 8192 encodes,
+#: 16400 wide does not.
+MAX_ENCODE_SIDE = 16384
+
+
+def _check_ffmpeg(exe: str, origin: str) -> None:
+    """Raise RenderError unless ``exe`` runs and says it is ffmpeg."""
+    import subprocess
+
+    try:
+        out = subprocess.run(
+            [exe, "-version"], capture_output=True, text=True, timeout=20, check=False
+        ).stdout
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise RenderError(f"{origin} cannot be run ({exc})") from exc
+    if not out.startswith("ffmpeg version"):
+        first = (out.splitlines() or ["no output"])[0][:60]
+        raise RenderError(f"{origin} is not ffmpeg (its -version says {first!r})")
 
 
 def ffmpeg_exe() -> str:
-    """Path of the ffmpeg binary imageio-ffmpeg uses.
+    """Path of the ffmpeg binary imageio-ffmpeg uses, checked to run and to be ffmpeg.
+
+    ``IMAGEIO_FFMPEG_EXE`` names another binary; errors about it name the variable.
 
     Raises:
-        RenderError: When no ffmpeg is available.
+        RenderError: When no working ffmpeg is available (one line: what to do).
     """
+    env = os.environ.get("IMAGEIO_FFMPEG_EXE")
+    if env:
+        import shutil
+
+        origin = f"IMAGEIO_FFMPEG_EXE={env}"
+        exe = shutil.which(env) or env
+        if not os.path.isfile(exe):
+            raise RenderError(
+                f"{origin} names no file: point it at an ffmpeg binary, or unset it to use "
+                "imageio-ffmpeg's own"
+            )
+        if not os.access(exe, os.X_OK):
+            raise RenderError(f"{origin} is not executable: chmod +x it, or unset it")
+        _check_ffmpeg(exe, f"{origin} (unset it to use imageio-ffmpeg's own ffmpeg)")
+        return exe
     try:
         import imageio_ffmpeg
 
-        exe = imageio_ffmpeg.get_ffmpeg_exe()
+        exe = str(imageio_ffmpeg.get_ffmpeg_exe())
     except Exception as exc:
+        reason = " ".join(str(exc).split())
         raise RenderError(
-            f"ffmpeg is not available ({exc}): pip install imageio-ffmpeg, or set "
+            f"ffmpeg is not available ({reason}): pip install imageio-ffmpeg, or set "
             "IMAGEIO_FFMPEG_EXE to an ffmpeg binary"
         ) from exc
     if not os.access(exe, os.X_OK):
         raise RenderError(f"ffmpeg at {exe} is not executable: reinstall imageio-ffmpeg")
-    return str(exe)
+    _check_ffmpeg(exe, f"imageio-ffmpeg's ffmpeg at {exe} (reinstall imageio-ffmpeg)")
+    return exe
 
 
 #: How the runner's phase names read in the overlay.
@@ -120,11 +166,14 @@ PHASE_LABELS = {
     "settle": "settle",
     "done": "done",
     "idle": "idle",
+    "bin_emptied": "bin emptied",
+    "shelf_cleared": "shelf cleared",
 }
 
 
 def overlay_lines(status: dict[str, object], sim_time: float) -> list[str]:
-    """The overlay text for the runner's ``status`` at simulated time ``sim_time`` [s]."""
+    """The overlay text for the runner's ``status`` at simulated time ``sim_time`` [s]: cycle,
+    slot, phase, score, time, and the event between cycles being shown (bin emptied, ...)."""
     phase = str(status.get("phase", ""))
     done = int(status.get("done", 0))  # type: ignore[call-overload]
     return [
@@ -132,7 +181,7 @@ def overlay_lines(status: dict[str, object], sim_time: float) -> list[str]:
         f"phase: {PHASE_LABELS.get(phase, phase)}",
         f"score: {status.get('successes', 0)}/{done}",
         f"t = {sim_time:6.2f} s",
-    ]
+    ] + ([str(status["event"])] if status.get("event") else [])
 
 
 class _Overlay:
@@ -167,17 +216,21 @@ class _Overlay:
 
 
 class _Writer:
-    """Overlays and encodes frames on a background thread."""
+    """Overlays and encodes frames on a background thread, into a temporary file beside the
+    destination that :meth:`close` moves into place (a failed encode leaves any earlier file at
+    the destination as it was)."""
 
     def __init__(self, settings: VideoSettings) -> None:
         import imageio.v2 as imageio
 
         ffmpeg_exe()
+        self.path = settings.path
         self.overlay = _Overlay(settings.height)
         crf, preset = ENCODING[settings.quality]
+        self.tmp = temp_beside(settings.path)
         try:
             self.writer = imageio.get_writer(
-                str(settings.path),
+                str(self.tmp),
                 fps=settings.fps,
                 codec="libx264",
                 macro_block_size=16,
@@ -186,9 +239,13 @@ class _Writer:
                 output_params=["-crf", str(crf), "-preset", preset],
             )
         except Exception as exc:
-            raise RenderError(f"cannot start the video encoder for {settings.path}: {exc}") from exc
+            discard(self.tmp)
+            reason = " ".join(str(exc).split())
+            raise RenderError(
+                f"cannot start the video encoder for {settings.path}: {reason}"
+            ) from exc
         self.queue: queue.Queue[tuple[npt.NDArray[np.uint8], list[str]] | None] = queue.Queue(8)
-        self.error: BaseException | None = None
+        self.error: Exception | None = None
         self.frames = 0
         self.thread = threading.Thread(target=self._run, name="kr210-video", daemon=True)
         self.thread.start()
@@ -204,7 +261,7 @@ class _Writer:
                 frame, lines = item
                 self.writer.append_data(self.overlay.draw(frame, lines))
                 self.frames += 1
-            except BaseException as exc:  # surfaced on the main thread
+            except Exception as exc:  # surfaced on the main thread
                 self.error = exc
 
     def put(self, frame: npt.NDArray[np.uint8], lines: list[str]) -> None:
@@ -213,6 +270,11 @@ class _Writer:
         self.queue.put((frame, lines))
 
     def close(self) -> None:
+        """Finish encoding and move the file into place.
+
+        Raises:
+            RenderError: When encoding failed (the temporary file is removed).
+        """
         self.queue.put(None)
         self.thread.join()
         try:
@@ -220,8 +282,15 @@ class _Writer:
         except Exception as exc:
             if self.error is None:
                 self.error = exc
-        if self.error is not None:
-            raise RenderError(f"video encoding failed: {self.error}")
+        if self.error is not None or self.frames == 0:
+            discard(self.tmp)
+            if self.error is not None:
+                raise RenderError(f"video encoding failed: {_one_line(self.error)}")
+            return
+        try:
+            commit(self.tmp, self.path)
+        except ConfigError as exc:
+            raise RenderError(str(exc)) from exc
 
 
 @dataclass
@@ -248,7 +317,7 @@ class FrameRecorder:
     #: Cameras used instead of the settings' ones (the closing shot), or None.
     override: list[int] | None = None
     #: The error that stopped recording, if any (recording stops; the run goes on).
-    error: BaseException | None = None
+    error: Exception | None = None
 
     def __post_init__(self) -> None:
         s = self.settings
@@ -275,14 +344,15 @@ class FrameRecorder:
         return views[0] if len(views) == 1 else np.concatenate(views, axis=1)
 
     def __call__(self, cell: Any) -> None:
-        """Step hook: render a frame when one is due. Never raises: a failure is kept in
-        :attr:`error`, recording stops and the simulation goes on unchanged."""
+        """Step hook: render a frame when one is due. An error is kept in :attr:`error`,
+        recording stops and the simulation goes on unchanged; an interrupt (Ctrl-C, SIGTERM)
+        is not an error and goes through, so the run stops and the frames so far are kept."""
         data = cell.data
         if self.error is not None or data.time + 1e-9 < self._next_t:
             return
         try:
             self.capture(data, self.override)
-        except BaseException as exc:
+        except Exception as exc:
             self.error = exc
 
     def capture(self, data: mujoco.MjData, cameras: list[int] | None = None) -> None:
@@ -316,8 +386,14 @@ class FrameRecorder:
                 self._renderer.close()
                 self._renderer = None
         if self.error is not None:
-            raise RenderError(f"video recording failed: {self.error}") from self.error
+            raise RenderError(f"video recording failed: {_one_line(self.error)}") from self.error
         return self._writer.frames if self._writer is not None else 0
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception as one line: its type when it has no message."""
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
 
 
 class Progress:

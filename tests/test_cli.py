@@ -177,3 +177,88 @@ def test_same_command_twice_gives_identical_json(tmp_path: Path) -> None:
         assert main(argv) == 0
         texts.append(json.dumps(strip_wall(json.loads(path.read_text())), indent=2, sort_keys=True))
     assert texts[0] == texts[1]
+
+
+def test_absurd_cycle_counts_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "--cycles", "100000000000000000000"])
+    assert exc.value.code == 2
+    assert "at most 10000 in one run (use evaluate)" in _one_line(capsys)
+
+
+@pytest.mark.parametrize(
+    ("outputs", "message"),
+    [
+        (["--report", "{d}/x.mp4", "--video", "{d}/x.mp4"], "--video and --report name the same"),
+        (["--report", "{d}/p/cycle_times.png", "--plots", "{d}/p"], "--report name the same"),
+        (["--report", "{d}/scene.xml", "--scene", "{d}/scene.xml"], "--report and --scene"),
+        (["--report", "{scene}"], "--report and --scene name the same file"),
+    ],
+)
+def test_clashing_outputs_are_refused_before_anything_runs(
+    tmp_path: Path, outputs: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.paths import SCENE_PATH
+
+    scene_text = SCENE_PATH.read_text()
+    (tmp_path / "scene.xml").write_text(scene_text)
+    argv = [a.format(d=tmp_path, scene=SCENE_PATH) for a in outputs]
+    assert main(["run", "--cycles", "1", *argv]) == 2
+    assert message in _one_line(capsys)
+    assert (tmp_path / "scene.xml").read_text() == scene_text
+    assert SCENE_PATH.read_text() == scene_text
+    assert not (tmp_path / "x.mp4").exists() and not (tmp_path / "p" / "cycle_times.png").exists()
+
+
+def test_a_plot_folder_that_cannot_be_made_is_refused_up_front(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    report = tmp_path / "r.json"
+    argv = ["run", "--cycles", "1", "--report", str(report), "--plots", str(blocker / "plots")]
+    assert main(argv) == 2
+    assert "cannot create the folder" in _one_line(capsys)
+    assert not report.exists()  # refused before any cycle ran
+
+
+def test_a_plot_name_taken_by_a_folder_is_refused_up_front(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "plots" / "gripper_error.png").mkdir(parents=True)
+    report = tmp_path / "r.json"
+    argv = ["run", "--cycles", "1", "--report", str(report), "--plots", str(tmp_path / "plots")]
+    assert main(argv) == 2
+    assert "gripper_error.png is a folder" in _one_line(capsys)
+    assert not report.exists()
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes through any permission bits")
+def test_a_read_only_plot_folder_is_refused_up_front(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    plots.chmod(0o500)
+    report = tmp_path / "r.json"
+    argv = ["run", "--cycles", "1", "--report", str(report), "--plots", str(plots)]
+    assert main(argv) == 2
+    assert "permission denied" in _one_line(capsys)
+    assert not report.exists()
+
+
+def test_long_runs_keep_no_per_tick_recordings(tmp_path: Path) -> None:
+    from kr210_sim.job import run_job
+    from kr210_sim.runner import RunConfig, Runner
+
+    runner = Runner(RunConfig(cycles=2, seed=1))
+    for i in (1, 2):
+        runner.run_cycle(i, 5)
+    assert runner.recordings == []  # bounded memory without --plots
+    job = run_job(RunConfig(cycles=1, slot=5), tmp_path / "r.json", plots_dir=tmp_path / "p")
+    assert [p.name for p in job.plot_paths] == [
+        "tracking_error.png",
+        "gripper_error.png",
+        "joint_limits.png",
+        "cycle_times.png",
+    ]

@@ -14,7 +14,7 @@ from kr210_sim.runner import RunConfig, Runner
 
 @pytest.fixture(scope="module")
 def runner() -> Runner:
-    r = Runner(RunConfig(cycles=2, seed=1))
+    r = Runner(RunConfig(cycles=2, seed=1), keep_recordings=True)
     for i in (1, 2):
         r.run_cycle(i, r.slot_for_cycle())
     return r
@@ -38,5 +38,5 @@ def test_four_plots_are_written(tmp_path: Path, runner: Runner) -> None:
 def test_unwritable_plot_folder(tmp_path: Path, runner: Runner) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")
-    with pytest.raises(ConfigError, match="cannot create the plot folder"):
+    with pytest.raises(ConfigError, match="cannot create the folder"):
         write_plots(blocker / "plots", runner.results, runner.recordings, runner.robot)

@@ -23,7 +23,7 @@ def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
         assert r.env_contact_ticks == 0
         assert r.creep_mm < 2.0
         assert max(r.max_tracking_error_deg) < 0.1  # inverse-dynamics feed-forward
-        assert r.max_gripper_error_mm < 2.0
+        assert r.max_gripper_tracking_error_mm < 2.0
         assert r.cycle_time < 6.5
         assert r.grasp_attempts == 1
         assert in_bin(r.target_final, runner.config.cell.bin)

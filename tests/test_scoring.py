@@ -6,7 +6,17 @@ import numpy as np
 import pytest
 
 from kr210_sim.config import BinSpec
-from kr210_sim.scoring import REST_SPEED, CycleObservation, Outcome, in_bin, score
+from kr210_sim.scoring import (
+    REST_SPEED,
+    REST_SPIN,
+    REST_WINDOW,
+    CycleObservation,
+    Outcome,
+    in_bin,
+    is_still,
+    rest_window_ticks,
+    score,
+)
 
 BIN = BinSpec()
 IN_BIN = np.array([0.05, 2.5, 0.1])
@@ -21,6 +31,8 @@ def obs(**kw: object) -> CycleObservation:
         robot_env_contacts=0,
         target_position=IN_BIN,
         target_speed=0.0,
+        target_spin=0.0,
+        rested_for=REST_WINDOW,
     )
     base.update(kw)
     return CycleObservation(**base)  # type: ignore[arg-type]
@@ -47,7 +59,8 @@ def test_success() -> None:
         ({"released": False}, Outcome.DROPPED_IN_TRANSIT),
         ({"target_position": np.array([0.7, 2.5, 0.05])}, Outcome.MISSED_BIN),
         ({"target_position": np.array([0.0, 2.5, 1.2])}, Outcome.MISSED_BIN),  # on the rim
-        ({"target_speed": REST_SPEED * 5}, Outcome.MISSED_BIN),  # still moving
+        ({"target_speed": REST_SPEED * 5, "rested_for": 0.0}, Outcome.MISSED_BIN),  # moving
+        ({"rested_for": REST_WINDOW - 0.002}, Outcome.MISSED_BIN),  # still, but not for long
     ],
 )
 def test_failure_reasons(changes: dict[str, object], expected: Outcome) -> None:
@@ -69,3 +82,17 @@ def test_in_bin_walls_and_rim() -> None:
     assert not in_bin([cx, cy, BIN.height + 0.01], BIN)
     assert not in_bin([cx, cy, BIN.floor_top - 0.01], BIN)
     assert not in_bin([cx + half - 0.01, cy, 0.2], BIN, margin=0.02)
+
+
+def test_still_needs_both_slow_centre_and_slow_spin() -> None:
+    assert is_still(0.0, 0.0)
+    assert not is_still(REST_SPEED * 1.01, 0.0)
+    # A cylinder rocking on its rim: its centre barely moves, it turns at 0.37 rad/s (seen in
+    # randomised episodes scored at rest by the old one-tick linear-speed test).
+    assert not is_still(0.01, 0.37)
+    assert not is_still(0.0, REST_SPIN * 1.01)
+
+
+def test_rest_window_in_ticks() -> None:
+    assert rest_window_ticks(0.002) == round(REST_WINDOW / 0.002)
+    assert rest_window_ticks(10.0) == 1

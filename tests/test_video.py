@@ -188,3 +188,62 @@ def test_progress_estimate_and_line() -> None:
     assert lines[1].startswith("video [############------------] cycle 2/4  300 frames")
     assert "eta   10 s" in lines[1]
     assert lines[2].startswith("video: 300 frames in")
+
+
+def test_a_tiling_wider_than_the_encoder_is_refused_up_front(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    video = tmp_path / "v.mp4"
+    video.write_bytes(b"a good video")
+    cams = ["--camera", "overview", "--camera", "shelf", "--camera", "bin"]
+    argv = ["run", "--cycles", "1", "--report", str(tmp_path / "r.json"), "--video", str(video)]
+    assert main([*argv, *cams, "--width", "8192", "--height", "64"]) == 2
+    assert "24576 px wide video; the H.264 encoder takes at most 16384" in _one_line_error(capsys)
+    assert video.read_bytes() == b"a good video"
+    assert not (tmp_path / "r.json").exists()
+
+
+def _fake_ffmpeg(path: Path, version: str) -> Path:
+    """A script that answers -version like ffmpeg and then fails (or, not ffmpeg at all)."""
+    path.write_text(f"#!/bin/sh\n[ \"$1\" = -version ] && echo '{version}' && exit 0\nexit 1\n")
+    path.chmod(0o755)
+    return path
+
+
+def test_a_failed_encode_leaves_an_earlier_video_untouched(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    exe = _fake_ffmpeg(tmp_path / "ffmpeg", "ffmpeg version 0-broken")
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", str(exe))
+    out = tmp_path / "out"
+    out.mkdir()
+    video = out / "v.mp4"
+    video.write_bytes(b"a good video")
+    argv = ["run", "--cycles", "1", "--slot", "5", "--report", str(out / "r.json")]
+    small = ["--width", "160", "--height", "128", "--fps", "5", "--quality", "fast"]
+    assert main([*argv, "--video", str(video), *small]) == 2
+    line = _one_line_error(capsys)
+    assert "video" in line and "the report was written" in line
+    assert video.read_bytes() == b"a good video"
+    assert sorted(p.name for p in out.iterdir()) == ["r.json", "v.mp4"]  # no temporary left
+
+
+@pytest.mark.parametrize(
+    ("exe", "message"),
+    [
+        ("/nonexistent/ffmpeg", "IMAGEIO_FFMPEG_EXE=/nonexistent/ffmpeg names no file"),
+        ("{d}/notffmpeg", "is not ffmpeg (its -version says 'GNU true 9')"),
+    ],
+)
+def test_imageio_ffmpeg_exe_errors_name_the_variable(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, exe: str, message: str
+) -> None:
+    from kr210_sim.errors import RenderError
+    from kr210_sim.video import ffmpeg_exe
+
+    _fake_ffmpeg(tmp_path / "notffmpeg", "GNU true 9")
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", exe.format(d=tmp_path))
+    with pytest.raises(RenderError) as err:
+        ffmpeg_exe()
+    text = str(err.value)
+    assert message in text and "IMAGEIO_FFMPEG_EXE" in text and "\n" not in text

@@ -1,0 +1,88 @@
+"""Console streams that survive a closed pipe or a full device.
+
+``run --cycles 30 | head -1`` closes the pipe after the first line; stdout on a full device
+fails every write. Neither is a reason to lose a run: the report is the product, the console
+lines are a courtesy. :class:`SafeStream` wraps ``sys.stdout`` / ``sys.stderr`` for the CLI:
+the first failed write points the file descriptor at ``/dev/null`` (so the interpreter's own
+flush at exit is quiet too), later writes are dropped, and the run goes on. A broken pipe is
+silent (what ``head`` expects); any other write error is said once on stderr.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import sys
+from typing import Any, TextIO
+
+
+class SafeStream:
+    """A text stream whose write errors stop the output, never the program.
+
+    Args:
+        stream: The stream to wrap.
+        name: Its name for the one-line warning (``"stdout"``).
+    """
+
+    def __init__(self, stream: TextIO, name: str) -> None:
+        self._stream = stream
+        self._name = name
+        self.failed: OSError | None = None
+
+    def __getattr__(self, attr: str) -> Any:
+        return getattr(self._stream, attr)
+
+    def _fail(self, exc: OSError) -> None:
+        self.failed = exc
+        try:
+            fd = self._stream.fileno()
+        except (OSError, ValueError, AttributeError):
+            fd = -1
+        if fd >= 0:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(devnull, fd)
+            finally:
+                os.close(devnull)
+        if exc.errno != errno.EPIPE and self._name != "stderr":
+            err = sys.__stderr__
+            try:
+                if err is None:
+                    return
+                err.write(
+                    f"kr210_sim: warning: {self._name} cannot be written ({exc.strerror}); "
+                    "its output is dropped, reports are still written\n"
+                )
+                err.flush()
+            except (OSError, ValueError, AttributeError):
+                pass
+
+    def write(self, text: str) -> int:
+        """Write ``text``; after a failure, drop it."""
+        if self.failed is not None:
+            return len(text)
+        try:
+            return self._stream.write(text)
+        except OSError as exc:
+            self._fail(exc)
+            return len(text)
+
+    def flush(self) -> None:
+        """Flush; after a failure, do nothing."""
+        if self.failed is not None:
+            return
+        try:
+            self._stream.flush()
+        except OSError as exc:
+            self._fail(exc)
+        except ValueError:  # flushed after the stream was closed
+            pass
+
+    def isatty(self) -> bool:
+        """Whether the wrapped stream is a terminal (False once it failed)."""
+        if self.failed is not None:
+            return False
+        try:
+            return bool(self._stream.isatty())
+        except (OSError, ValueError):
+            return False

@@ -1,0 +1,71 @@
+"""Termination signals handled like Ctrl-C: stop the work, keep what finished, exit 128 + N.
+
+``SIGTERM`` (what ``kill``, ``timeout`` and CI runners send) and ``SIGHUP`` (a closed terminal)
+raise :class:`Interrupted` in the main thread, a :class:`KeyboardInterrupt` that carries the
+signal's number. Every ``except KeyboardInterrupt`` that writes the report of the cycles or
+episodes finished so far therefore serves all three signals alike; the exit code tells them
+apart (:func:`exit_code`: 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from types import FrameType
+
+#: Signals turned into :class:`Interrupted` by :func:`terminate_as_interrupt`.
+HANDLED = (signal.SIGTERM, signal.SIGHUP)
+
+
+class Interrupted(KeyboardInterrupt):
+    """The work was stopped by a signal.
+
+    Args:
+        signum: The signal's number (``signal.SIGINT`` for Ctrl-C).
+    """
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+
+def exit_code(exc: BaseException | None) -> int:
+    """The conventional exit code of a process stopped by ``exc``: 128 + the signal's number
+    (130 for a plain :class:`KeyboardInterrupt`)."""
+    return 128 + int(getattr(exc, "signum", signal.SIGINT))
+
+
+def signal_name(exc: BaseException | None) -> str:
+    """``"SIGINT"``, ``"SIGTERM"``, ... for an interrupt exception."""
+    return signal.Signals(int(getattr(exc, "signum", signal.SIGINT))).name
+
+
+def _raise(signum: int, frame: FrameType | None) -> None:
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM and SIGHUP raise :class:`Interrupted` in the main thread.
+
+    Outside the main thread (where Python cannot install handlers) this does nothing. The
+    previous handlers are restored afterwards; a signal ignored by the parent (``nohup``) stays
+    ignored.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {}
+    for sig in HANDLED:
+        old = signal.getsignal(sig)
+        if old is signal.SIG_IGN:
+            continue
+        previous[sig] = old
+        signal.signal(sig, _raise)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)

@@ -1,0 +1,110 @@
+"""Signals and closed pipes, on a real ``python -m kr210_sim run`` process: what finished is kept.
+
+Each test starts the command, waits for its first cycle line, then does to it what a user or a
+CI runner would (Ctrl-C to the process group, SIGTERM, ``| head -1``, a full device).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import imageio.v2 as imageio
+import pytest
+
+pytestmark = pytest.mark.slow
+
+COMMAND = [sys.executable, "-m", "kr210_sim", "run"]
+
+
+def _start(args: list[str], cwd: Path, **kwargs: object) -> subprocess.Popen[str]:
+    return subprocess.Popen(  # type: ignore[call-overload, no-any-return]
+        [*COMMAND, *args],
+        cwd=cwd,
+        text=True,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a shell job would be
+        **{"stdout": subprocess.PIPE, **kwargs},
+    )
+
+
+def _first_cycle(proc: subprocess.Popen[str]) -> str:
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert line.startswith("[ 1/"), line
+    return line
+
+
+def test_sigterm_writes_the_cycles_done_and_exits_143(tmp_path: Path) -> None:
+    report = tmp_path / "run.json"
+    proc = _start(["--cycles", "40", "--report", str(report)], tmp_path)
+    _first_cycle(proc)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    assert "interrupted after" in err and "SIGTERM" in err
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True and data["interrupted_by"] == "SIGTERM"
+    assert 1 <= data["summary"]["cycles"] < 40
+
+
+@pytest.mark.render
+def test_ctrl_c_during_a_video_keeps_a_playable_partial_mp4(tmp_path: Path) -> None:
+    report, video = tmp_path / "run.json", tmp_path / "run.mp4"
+    args = ["--cycles", "40", "--report", str(report), "--video", str(video)]
+    video_args = ["--width", "160", "--height", "128", "--fps", "5", "--quality", "fast"]
+    proc = _start([*args, *video_args], tmp_path)
+    _first_cycle(proc)
+    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "video recording failed" not in err
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True and data["interrupted_by"] == "SIGINT"
+    cycles = data["summary"]["cycles"]
+    assert 1 <= cycles < 40
+    frames = [f for f in imageio.get_reader(video)]  # list() fails: len() is inf
+    # At least the first cycle's frames (5 a simulated second), all decodable.
+    assert len(frames) >= 5 * 4 and frames[0].shape == (128, 160, 3)
+    assert f"({len(frames)} frames)" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run.mp4"]
+
+
+def test_a_closed_stdout_does_not_lose_the_report(tmp_path: Path) -> None:
+    report = tmp_path / "run.json"
+    proc = _start(["--cycles", "12", "--slot", "5", "--report", str(report)], tmp_path)
+    _first_cycle(proc)
+    assert proc.stdout is not None
+    proc.stdout.close()  # `| head -1`
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    assert proc.wait(timeout=60) == 0, err
+    assert err == ""  # a broken pipe is not worth a word
+    assert json.loads(report.read_text())["summary"]["cycles"] == 12
+
+
+def test_stdout_on_a_full_device_does_not_lose_the_report(tmp_path: Path) -> None:
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    report = tmp_path / "run.json"
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run(
+            [*COMMAND, "--cycles", "2", "--slot", "5", "--report", str(report)],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=tmp_path,
+            check=False,
+            timeout=120,
+        )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.splitlines() == [
+        "kr210_sim: warning: stdout cannot be written (No space left on device); its output is "
+        "dropped, reports are still written"
+    ]
+    assert json.loads(report.read_text())["summary"]["cycles"] == 2
