@@ -6,11 +6,14 @@ machines). This must happen before :mod:`mujoco` is imported anywhere, so the pa
 :mod:`mujoco` here, once: when ``MUJOCO_GL`` names no backend mujoco knows, or a backend whose
 library is missing, mujoco's import raises. The physics needs no OpenGL, so mujoco is then
 imported with its OpenGL backend disabled and the reason is kept in :data:`GL_IMPORT_ERROR`;
-rendering (:func:`kr210_sim.render.make_renderer`) refuses with it in one line.
+rendering (:func:`kr210_sim.render.make_renderer`) refuses with it in one line. MuJoCo's
+warnings are routed to :mod:`logging` (logger ``mujoco``) instead of a ``MUJOCO_LOG.TXT`` file in
+the current folder.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 
@@ -60,8 +63,18 @@ def _import_mujoco() -> str | None:
     return " ".join(f"{type(first).__name__}: {first}".split())
 
 
-if "mujoco" not in sys.modules:
+def _log_mujoco_warning(message: str) -> None:
+    """MuJoCo's warnings (an unstable simulation, a full contact buffer, ...) go to logging;
+    MuJoCo's own handler prints them to stdout and appends them to ``MUJOCO_LOG.TXT`` in the
+    current folder."""
+    logging.getLogger("mujoco").warning("%s", message)
+
+
+if "mujoco" not in sys.modules:  # else whoever imported mujoco first keeps their handlers
     GL_IMPORT_ERROR = _import_mujoco()
+    import mujoco
+
+    mujoco.set_mju_user_warning(_log_mujoco_warning)
 
 __version__ = "0.1.0"
 
