@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from kr210_sim.outputs import check_folder, write_bytes_atomic
 from kr210_sim.paths import MESH_DIR
 
 #: Facets around a cylinder.
@@ -194,14 +195,19 @@ def stl_bytes(mesh: trimesh.Trimesh) -> bytes:
 
 
 def build_meshes(out_dir: Path | str = MESH_DIR) -> list[Path]:
-    """Write every link mesh as ``<link>.stl`` into ``out_dir``; return the paths written."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    """Write every link mesh as ``<link>.stl`` into ``out_dir``; return the paths written.
+
+    A file that already holds the same bytes is left untouched.
+
+    Raises:
+        ConfigError: When ``out_dir`` or a mesh file cannot be written.
+    """
+    out = check_folder(out_dir)
     paths = []
     for link in BUILDERS:
         path = out / f"{link}.stl"
         data = stl_bytes(build_mesh(link))
-        if not path.exists() or path.read_bytes() != data:
-            path.write_bytes(data)
+        if not path.is_file() or path.read_bytes() != data:
+            write_bytes_atomic(path, data)
         paths.append(path)
     return paths

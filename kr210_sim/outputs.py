@@ -250,3 +250,20 @@ def write_text_atomic(path: Path | str, text: str) -> Path:
     with atomic_path(p) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return p
+
+
+def write_bytes_atomic(path: Path | str, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`).
+
+    Raises:
+        ConfigError: When the file cannot be written (``path`` is a folder, its folder is
+            missing, the disk is full, ...).
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise ConfigError(f"cannot write {p}: it is a folder")
+    if not p.parent.is_dir():
+        raise ConfigError(f"cannot write {p}: the folder {p.parent} does not exist")
+    with atomic_path(p) as tmp:
+        tmp.write_bytes(data)
+    return p

@@ -1,7 +1,9 @@
 """Offscreen rendering: the GL backend check, renderers sized to the scene, and stills.
 
-Importing :mod:`kr210_sim` picks ``MUJOCO_GL=egl`` when no display is set; when no backend
-works, :func:`make_renderer` raises :class:`RenderError` naming ``MUJOCO_GL`` and what to install.
+Importing :mod:`kr210_sim` picks ``MUJOCO_GL=egl`` when no display is set, and imports mujoco
+without OpenGL when ``MUJOCO_GL`` names a backend that cannot be loaded (the physics needs none);
+when no backend works, :func:`make_renderer` raises :class:`RenderError` naming ``MUJOCO_GL`` and
+what to install.
 """
 
 from __future__ import annotations
@@ -58,14 +60,16 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
         raise ConfigError(f"frame size must be positive, got {width}x{height}")
     if width > MAX_FRAME or height > MAX_FRAME:
         raise ConfigError(f"frame {width}x{height} is too large: at most {MAX_FRAME} px a side")
+    import kr210_sim
+
+    gl = os.environ.get("MUJOCO_GL", "unset")
+    if kr210_sim.GL_IMPORT_ERROR is not None:
+        raise RenderError(GL_HELP.format(gl=gl) + f" [{kr210_sim.GL_IMPORT_ERROR}]")
     glob = model.vis.global_
     glob.offwidth, glob.offheight = max(glob.offwidth, width), max(glob.offheight, height)
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:
-        import kr210_sim
-
-        gl = os.environ.get("MUJOCO_GL", "unset")
         if kr210_sim.GL_CHOSEN_LATE:
             raise RenderError(
                 "mujoco was imported before kr210_sim, so it did not see MUJOCO_GL=egl: "
@@ -105,7 +109,7 @@ def snapshot(
     import imageio.v3 as iio
 
     from kr210_sim.config import CellConfig, MotionConfig
-    from kr210_sim.report import check_writable
+    from kr210_sim.outputs import check_writable, write_bytes_atomic
     from kr210_sim.scene import CellHandles, load_model
 
     path = check_writable(out)
@@ -126,7 +130,4 @@ def snapshot(
         frame = render_frame(renderer, data, camera)
     finally:
         renderer.close()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    iio.imwrite(tmp, frame)
-    os.replace(tmp, path)
-    return path
+    return write_bytes_atomic(path, iio.imwrite("<bytes>", frame, extension=".png"))

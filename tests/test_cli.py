@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes.util
 import json
 import os
 import subprocess
@@ -262,3 +263,84 @@ def test_long_runs_keep_no_per_tick_recordings(tmp_path: Path) -> None:
         "joint_limits.png",
         "cycle_times.png",
     ]
+
+
+def test_empty_root_variable_counts_as_unset(tmp_path: Path) -> None:
+    """``KR210_SIM_ROOT=`` (set but empty) is not the current folder."""
+    env = {**os.environ, "KR210_SIM_ROOT": ""}
+    proc = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", "run", "--cycles", "1"],
+        cwd=tmp_path, capture_output=True, text=True, env=env, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "reports" / "run.json").is_file()
+
+
+def test_scene_naming_a_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "--cycles", "1", "--scene", str(tmp_path)]) == 2
+    err = _one_line(capsys)
+    assert f"scene {tmp_path} is a folder" in err and "build-scene" not in err
+
+
+def _blocked_outputs(tmp_path: Path) -> dict[str, Path]:
+    """Output paths that cannot be written, even by root."""
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    taken = tmp_path / "taken"
+    (taken / "kr210_cell.xml").mkdir(parents=True)
+    (taken / "base_link.stl").mkdir()
+    return {"a file": afile, "under a file": afile / "sub", "target is a folder": taken}
+
+
+@pytest.mark.parametrize("command", ["build-scene", "build-meshes"])
+@pytest.mark.parametrize("case", ["a file", "under a file", "target is a folder"])
+def test_build_into_an_unwritable_out(
+    tmp_path: Path, command: str, case: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = _blocked_outputs(tmp_path)[case]
+    assert main([command, "--out", str(out)]) == 2
+    assert str(out) in _one_line(capsys)
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+@pytest.mark.parametrize("command", ["build-scene", "build-meshes"])
+def test_build_into_a_read_only_folder(
+    tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tmp_path.chmod(0o500)
+    try:
+        assert main([command, "--out", str(tmp_path / "out")]) == 2
+    finally:
+        tmp_path.chmod(0o700)
+    assert "cannot create the folder" in _one_line(capsys)
+
+
+def _without_gl_backend(gl: str) -> dict[str, str]:
+    return {**os.environ, "MUJOCO_GL": gl, "PYOPENGL_PLATFORM": ""}
+
+
+_BAD_GL = ["nonsense"] + (["osmesa"] if ctypes.util.find_library("OSMesa") is None else [])
+
+
+@pytest.mark.parametrize("gl", _BAD_GL)
+def test_a_bad_gl_backend_stops_only_rendering(tmp_path: Path, gl: str) -> None:
+    """MUJOCO_GL naming no backend (or one whose library is missing) does not stop the physics;
+    rendering then fails with one line naming MUJOCO_GL and what to install."""
+    env = _without_gl_backend(gl)
+    kr210 = [sys.executable, "-m", "kr210_sim"]
+    run = subprocess.run(
+        [*kr210, "run", "--cycles", "1", "--report", str(tmp_path / "r.json")],
+        capture_output=True, text=True, env=env, check=False,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "PASS: 1/1" in run.stdout and not run.stderr
+    snap = subprocess.run(
+        [*kr210, "snapshot", "--out", str(tmp_path / "s.png")],
+        capture_output=True, text=True, env=env, check=False,
+    )  # fmt: skip
+    assert snap.returncode == 2
+    (line,) = snap.stderr.strip().splitlines()
+    assert line.startswith("kr210_sim: error: no OpenGL backend") and "Traceback" not in line
+    assert f"MUJOCO_GL={gl}" in line and "apt-get install libegl1" in line
+    assert not (tmp_path / "s.png").exists()

@@ -41,3 +41,16 @@ def test_offscreen_buffer_grows_to_fit_a_large_frame() -> None:
         renderer.close()
     with pytest.raises(ConfigError, match="too large: at most 8192 px"):
         make_renderer(model, 9000, 480)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+def test_snapshot_into_a_folder_that_refuses_files(capsys: pytest.CaptureFixture[str]) -> None:
+    """/proc takes no new files, not even from root (whom the up-front check lets through)."""
+    from kr210_sim.cli import main
+
+    assert (
+        main(["snapshot", "--out", "/proc/kr210_sim.png", "--width", "160", "--height", "96"]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("kr210_sim: error: cannot write /proc/kr210_sim.png")
+    assert len(err.strip().splitlines()) == 1
