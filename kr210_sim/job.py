@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.ik_plugin import UserIk
 from kr210_sim.report import build_report, check_writable, cycle_line, write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
@@ -53,6 +54,7 @@ def run_job(
     out: TextIO | None = None,
     progress_stream: TextIO | None = None,
     scene: Path | None = None,
+    ik: UserIk | None = None,
 ) -> JobResult:
     """Run ``config.cycles`` cycles and write the report (and video, and plots).
 
@@ -64,6 +66,8 @@ def run_job(
         out: Where the per-cycle lines go (stdout).
         progress_stream: Where the video progress bar goes (stderr).
         scene: MJCF scene path (default: the committed scene).
+        ik: A user's IK function to plan with (default: our closed form); the report's summary
+            then has an ``ik`` block (SPEC, calls, wall time per call).
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
@@ -80,7 +84,7 @@ def run_job(
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
         raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
     # Without --scene the runner loads the committed scene itself, after the URDF.
-    runner = Runner(config, model=load_model(scene) if scene is not None else None)
+    runner = Runner(config, model=load_model(scene) if scene is not None else None, ik=ik)
     recorder: FrameRecorder | None = None
     progress: Progress | None = None
     video_error: str | None = None
@@ -116,6 +120,8 @@ def run_job(
         sys.stderr.write(f"kr210_sim: interrupted after {len(runner.results)} cycles\n")
     wall = time.perf_counter() - wall0
     report = build_report(config, runner.results, wall, interrupted=interrupted)
+    if runner.planner.user_ik is not None:
+        report["summary"]["ik"] = runner.planner.user_ik.summary()
     write_json_atomic(report_path, report)
     result = JobResult(
         report, report_path, interrupted, video_error=video_error, sim_time=runner.cell.time
