@@ -43,5 +43,5 @@ def solve(T: np.ndarray, q_ref: np.ndarray) -> list[float] | None:
     """Joint angles [rad] that put gripper_link at pose ``T``, nearest ``q_ref``; or None."""
     p = T[:3, 3]  # gripper_link position [m]
     R = T[:3, :3]  # gripper_link orientation
-    wc = p - 0.303 * R[:, 0]  # the wrist centre  # noqa: F841 (yours to use)
+    wc = p - 0.303 * R[:, 0]  # noqa: F841 (the wrist centre: yours to use)
     raise NotImplementedError("your inverse kinematics goes here")

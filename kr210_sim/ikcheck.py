@@ -292,7 +292,8 @@ def table(report: dict[str, Any]) -> str:
         kinds = sorted({r["branch_change"] for r in flagged})
         rows.append(
             f"  {len(flagged)} answers are not the solution nearest q_ref ({', '.join(kinds)}; "
-            f"e.g. {flagged[0]['name']}): run fails such jumps between straight-line samples"
+            f"e.g. {flagged[0]['name']}): run fails such a jump only between neighbouring "
+            "straight-line samples"
         )
     verdict = "PASS" if s["passed"] == s["cases"] else "FAIL"
     rows.append(
