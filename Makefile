@@ -19,8 +19,8 @@ test: $(STAMP)
 	$(PY) -m pytest -q -n 2
 
 lint: $(STAMP)
-	$(PY) -m ruff check kr210_sim tests benchmarks
-	$(PY) -m ruff format --check kr210_sim tests benchmarks
+	$(PY) -m ruff check kr210_sim tests benchmarks examples
+	$(PY) -m ruff format --check kr210_sim tests benchmarks examples
 	$(PY) -m mypy
 
 bench: $(STAMP)

@@ -1,9 +1,9 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``evaluate``, ``build-meshes``, ``build-scene``, ``snapshot``.
-Exit codes: 0 success, 1 a run below its pass bar, 2 a usage error or a failure with a one-line
-message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
-completed so far is still written).
+Commands: ``run`` (the main job), ``evaluate``, ``ik-check``, ``build-meshes``, ``build-scene``,
+``snapshot``. Exit codes: 0 success, 1 a run below its pass bar (or an IK failing a case), 2 a
+usage error or a failure with a one-line message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129
+by SIGHUP (the report of the cycles completed so far is still written).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
+DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -69,6 +70,12 @@ def _fraction(text: str) -> float:
     return value
 
 
+def _count(text: str) -> int:
+    value: int = _parsed(text, int, "a whole number")
+    _check(value >= 0, f"must be >= 0, got {value}")
+    return value
+
+
 def _seed(text: str) -> int:
     value: int = _parsed(text, int, "a whole number")
     _check(value >= 0, f"must be >= 0, got {value}")
@@ -94,6 +101,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from kr210_sim.video import VideoSettings
 
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
+    ik = None
+    if args.ik is not None:  # a bad SPEC is a one-line error here, before anything runs
+        from kr210_sim.ik_plugin import load_ik
+
+        ik = load_ik(args.ik)
     video = None
     # The video options given on the command line; VideoSettings holds the defaults.
     given: dict[str, Any] = {
@@ -111,10 +123,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene)
+    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene, ik=ik)
     out = sys.stdout
     summary = job.report["summary"]
     out.write(summary_table(summary) + "\n")
+    if "ik" in summary:
+        s, t = summary["ik"], summary["ik"]["wall_time_s"]
+        out.write(
+            f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
+            f"{1e6 * t['per_call_max']:.1f} us max per call\n"
+        )
     out.write(f"  report: {job.report_path}\n")
     if video is not None and job.video_error is None:
         written = f"({job.video_frames} frames)" if job.video_frames else "not written (no frames)"
@@ -175,6 +193,20 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     passed = s["success_rate"] >= args.min_success
     out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
     return 0 if passed else 1
+
+
+def _cmd_ik_check(args: argparse.Namespace) -> int:
+    from kr210_sim.ik_plugin import load_ik
+    from kr210_sim.ikcheck import run_check
+
+    ik = load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    result = run_check(ik, args.cases, args.seed, args.report, args.plots)
+    out = sys.stdout
+    out.write(result.text + "\n")
+    out.write(f"  report: {args.report}\n")
+    if result.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+    return 0 if result.passed else 1
 
 
 def _cmd_build_scene(args: argparse.Namespace) -> int:
@@ -250,6 +282,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
+    run.add_argument(
+        "--ik",
+        default=None,
+        metavar="SPEC",
+        help="plan with your IK: package.module:function or path/to/file.py:function",
+    )
     run.set_defaults(func=_cmd_run)
 
     ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
@@ -268,6 +306,27 @@ def build_parser() -> argparse.ArgumentParser:
         "--min-success", type=_fraction, default=0.995, help="pass bar for exit 0 (0.995)"
     )
     ev.set_defaults(func=_cmd_evaluate)
+
+    ikc = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
+    ikc.add_argument(
+        "--ik",
+        required=True,
+        metavar="SPEC",
+        help="package.module:function or path/to/file.py:function (ours: "
+        "kr210_sim.kinematics:nearest)",
+    )
+    ikc.add_argument(
+        "--cases", type=_count, default=1000, help="random poses on top of the fixed set (1000)"
+    )
+    ikc.add_argument("--seed", type=_seed, default=0, help="seed of the random poses (0)")
+    ikc.add_argument(
+        "--report",
+        type=Path,
+        default=DEFAULT_IK_REPORT,
+        help=f"JSON report path ({DEFAULT_IK_REPORT})",
+    )
+    ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
+    ikc.set_defaults(func=_cmd_ik_check)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
     scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")

@@ -29,3 +29,14 @@ class RenderError(Kr210SimError):
 
 class PlanningError(Kr210SimError):
     """A trajectory could not be planned (limits violated, ruckig failed, ...)."""
+
+
+class IkSpecError(ConfigError):
+    """An ``--ik`` SPEC names no loadable function (missing file or module, syntax error, no such
+    function, not callable, or the module raised at import)."""
+
+
+class IkFailedError(PlanningError):
+    """A user-supplied IK function gave no usable answer for a pose the plan needs (it raised,
+    returned something that is not six finite angles, left the joint limits, missed the pose or
+    jumped branch between neighbouring straight-line samples)."""

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.ik_plugin import UserIk
 from kr210_sim.interrupts import signal_name
 from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
 from kr210_sim.paths import SCENE_PATH, URDF_PATH
@@ -56,12 +57,13 @@ def check_outputs(
     video: VideoSettings | None,
     plots_dir: Path | None,
     scene: Path | None,
+    ik: UserIk | None = None,
 ) -> None:
     """Refuse, before anything runs, outputs that cannot be written or that clash.
 
     Raises:
         ConfigError: An output path is unwritable, two outputs name one file, or an output names
-            an input (the scene, the URDF).
+            an input (the scene, the URDF, the IK file).
     """
     check_writable(report_path)
     outputs: dict[str, Path | None] = {"--report": report_path}
@@ -73,9 +75,12 @@ def check_outputs(
     if plots_dir is not None:
         check_folder(plots_dir, PLOT_NAMES)
         outputs.update({f"--plots {name}": plots_dir / name for name in PLOT_NAMES})
-    check_distinct(
-        outputs, {"--scene": scene if scene is not None else SCENE_PATH, "the URDF": URDF_PATH}
-    )
+    inputs: dict[str, Path | None] = {
+        "--scene": scene if scene is not None else SCENE_PATH,
+        "the URDF": URDF_PATH,
+        "--ik": ik.source if ik is not None else None,
+    }
+    check_distinct(outputs, inputs)
 
 
 def run_job(
@@ -86,6 +91,7 @@ def run_job(
     out: TextIO | None = None,
     progress_stream: TextIO | None = None,
     scene: Path | None = None,
+    ik: UserIk | None = None,
 ) -> JobResult:
     """Run ``config.cycles`` cycles and write the report (and video, and plots).
 
@@ -97,6 +103,8 @@ def run_job(
         out: Where the per-cycle lines go (stdout).
         progress_stream: Where the video progress bar goes (stderr).
         scene: MJCF scene path (default: the committed scene).
+        ik: A user's IK function to plan with (default: our closed form); the report's summary
+            then has an ``ik`` block (SPEC, calls, wall time per call).
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
@@ -109,12 +117,13 @@ def run_job(
         SceneError: When the scene cannot be loaded.
     """
     out = out or sys.stdout
-    check_outputs(report_path, video, plots_dir, scene)
+    check_outputs(report_path, video, plots_dir, scene, ik)
     # Without --scene the runner loads the committed scene itself, after the URDF.
     runner = Runner(
         config,
         model=load_model(scene) if scene is not None else None,
         keep_recordings=plots_dir is not None,
+        ik=ik,
     )
     recorder: FrameRecorder | None = None
     progress: Progress | None = None
@@ -156,6 +165,8 @@ def run_job(
     report = build_report(
         config, runner.results, wall, interrupted=interrupted, events=runner.events
     )
+    if runner.planner.user_ik is not None:
+        report["summary"]["ik"] = runner.planner.user_ik.summary()
     write_json_atomic(report_path, report)
     result = JobResult(
         report, report_path, interrupted, video_error=video_error, sim_time=runner.cell.time

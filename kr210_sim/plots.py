@@ -31,6 +31,7 @@ OUTCOME_COLOURS = {
     "grasp_missed": "#ff7f0e",
     "dropped_in_transit": "#9467bd",
     "missed_bin": "#8c564b",
+    "ik_failed": "#17becf",
 }
 
 

@@ -18,7 +18,8 @@ import numpy.typing as npt
 from kr210_sim import kinematics
 from kr210_sim.config import CellConfig, MotionConfig, RandomizationSpec, TargetSpec
 from kr210_sim.control import Cell, Recording, hold
-from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
+from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
+from kr210_sim.ik_plugin import UserIk
 from kr210_sim.metrics import gripper_tracking_error_mm
 from kr210_sim.robot import RobotDescription, load_robot
 from kr210_sim.scene import load_model
@@ -200,6 +201,8 @@ class Runner:
         keep_recordings: Keep every cycle's per-tick :class:`Recording` in :attr:`recordings`
             (for plots; about 0.9 MB a cycle). Without it memory stays flat however many cycles
             run.
+        ik: A user's IK function to plan with (default: our closed form); a cycle whose plan
+            meets an unusable answer is scored ``ik_failed``.
     """
 
     def __init__(
@@ -208,12 +211,13 @@ class Runner:
         model: mujoco.MjModel | None = None,
         robot: RobotDescription | None = None,
         keep_recordings: bool = False,
+        ik: UserIk | None = None,
     ) -> None:
         self.config = config
         self.robot = robot or load_robot()
         self.model = model if model is not None else load_model()
         self.cell = Cell(self.model, config.cell)
-        self.planner = Planner(self.robot, config.motion)
+        self.planner = Planner(self.robot, config.motion, ik)
         self.planner.check_ready()
         self.rng = np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
@@ -319,6 +323,7 @@ class Runner:
         self._hold(SPAWN_SETTLE, rec, "spawn", phases)
         t_start = cell.time
         planned, confirmed, held, released, toppled = True, False, False, False, False
+        ik_failed = False
         attempts = 0
         detail = ""
         grip_ref: FloatArray | None = None
@@ -372,6 +377,7 @@ class Runner:
             self._track(self.planner.plan_return(self.q_cmd), rec, phases)
         except (UnreachablePoseError, PlanningError) as exc:
             planned = False  # scored "unreachable": no plan within the limits exists
+            ik_failed = isinstance(exc, IkFailedError)  # scored "ik_failed": the user's IK
             detail = str(exc)
             log.info("cycle %d: %s", index, detail)
             if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
@@ -379,6 +385,8 @@ class Runner:
                     self._track(self.planner.plan_return(self.q_cmd), rec, phases)
                 except PlanningError as back_exc:  # pragma: no cover - defensive
                     log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
+            if confirmed and not released:  # do not start the next cycle holding this target
+                cell.open_gripper()
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
         still = 0
@@ -403,7 +411,7 @@ class Runner:
             target_toppled=toppled
             or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
-        outcome = score(obs, cfg.cell.bin)
+        outcome = Outcome.IK_FAILED if ik_failed else score(obs, cfg.cell.bin)
         if outcome is Outcome.SUCCESS:
             detail = ""
         elif not detail:

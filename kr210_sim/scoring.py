@@ -25,6 +25,8 @@ class Outcome(StrEnum):
     GRASP_MISSED = "grasp_missed"
     DROPPED_IN_TRANSIT = "dropped_in_transit"
     MISSED_BIN = "missed_bin"
+    #: The user's IK function (``--ik``) gave an unusable answer for a pose the plan needs.
+    IK_FAILED = "ik_failed"
 
 
 #: Largest linear speed of a target counted as still [m/s].

@@ -32,6 +32,7 @@ import numpy.typing as npt
 from kr210_sim import kinematics
 from kr210_sim.config import MotionConfig
 from kr210_sim.errors import PlanningError, UnreachablePoseError
+from kr210_sim.ik_plugin import CheckedIk, UserIk
 from kr210_sim.robot import RobotDescription
 from kr210_sim.trajectory import JointLimits, Trajectory, plan_cartesian_line, plan_ptp
 
@@ -126,13 +127,19 @@ class Planner:
     Args:
         robot: The robot description.
         motion: Motion settings.
+        ik: A user's IK function to plan with instead of :func:`kinematics.nearest`; every
+            answer is checked (:class:`~kr210_sim.ik_plugin.CheckedIk`) and a bad one raises
+            :class:`~kr210_sim.errors.IkFailedError`.
     """
 
-    def __init__(self, robot: RobotDescription, motion: MotionConfig) -> None:
+    def __init__(
+        self, robot: RobotDescription, motion: MotionConfig, ik: UserIk | None = None
+    ) -> None:
         self.robot = robot
         self.motion = motion
         self.limits = JointLimits.from_robot(robot, motion)
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
+        self.user_ik = CheckedIk(ik) if ik is not None else None
 
     def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray) -> Move:
         """A joint-space move at rest at both ends."""
@@ -141,11 +148,12 @@ class Planner:
     def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray) -> Move:
         """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
         T_start = kinematics.forward(q_start)
+        ik = kinematics.nearest if self.user_ik is None else self.user_ik.line_ik(f"{phase} line")
         traj = plan_cartesian_line(
             T_start,
             T_goal,
             q_start,
-            kinematics.nearest,
+            ik,
             self.limits,
             speed=self.motion.lin_speed,
             step=self.motion.lin_step,
@@ -154,10 +162,34 @@ class Planner:
 
     def solve(self, T: FloatArray, q_ref: FloatArray, what: str) -> FloatArray:
         """IK for ``T`` nearest ``q_ref``, with the pose named in the error message."""
+        if self.user_ik is not None:
+            return self.user_ik.solve(T, q_ref, f"{what} pose")
         try:
             return kinematics.nearest(T, q_ref)
         except UnreachablePoseError as exc:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
+
+    def grasp_poses(
+        self, target_position: npt.ArrayLike, target_radius: float
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """gripper_link poses (4x4) of a pick: standoff, grasp, lift and lifted standoff.
+
+        Args:
+            target_position: Observed target centre [m].
+            target_radius: Target radius [m].
+        """
+        m = self.motion
+        p = np.asarray(target_position, dtype=np.float64)
+        depth = grasp_depth(self.robot, target_radius)
+        yaw = radial_yaw(p)
+        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
+        up = np.array([0.0, 0.0, 1.0])
+        grasp = p - depth * u + m.grasp_dz * up
+        T_grasp = gripper_pose(grasp, yaw)
+        T_standoff = gripper_pose(grasp - m.standoff * u, yaw)
+        T_lift = gripper_pose(grasp + m.lift * up, yaw)
+        T_back = gripper_pose(grasp - m.standoff * u + m.lift * up, yaw)
+        return T_standoff, T_grasp, T_lift, T_back
 
     def plan_grasp(
         self, q_start: FloatArray, target_position: npt.ArrayLike, target_radius: float
@@ -171,19 +203,10 @@ class Planner:
 
         Raises:
             UnreachablePoseError: When a pose has no IK solution inside the limits.
+            IkFailedError: When the user's IK gives an unusable answer.
             PlanningError: When a trajectory breaks a limit.
         """
-        m = self.motion
-        p = np.asarray(target_position, dtype=np.float64)
-        depth = grasp_depth(self.robot, target_radius)
-        yaw = radial_yaw(p)
-        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
-        up = np.array([0.0, 0.0, 1.0])
-        grasp = p - depth * u + m.grasp_dz * up
-        T_grasp = gripper_pose(grasp, yaw)
-        T_standoff = gripper_pose(grasp - m.standoff * u, yaw)
-        T_lift = gripper_pose(grasp + m.lift * up, yaw)
-        T_back = gripper_pose(grasp - m.standoff * u + m.lift * up, yaw)
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, target_radius)
         q_standoff = self.solve(T_standoff, q_start, "standoff")
         approach_ptp = self.ptp("approach", q_start, q_standoff)
         approach_lin = self.lin("approach", q_standoff, T_grasp)

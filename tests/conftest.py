@@ -5,6 +5,7 @@ test module imports mujoco.
 """
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -30,3 +31,14 @@ def ctrl_c_on_call() -> Callable[[Callable[..., Any], int], Callable[..., Any]]:
         return wrapper
 
     return wrap
+
+
+@pytest.fixture(scope="session")
+def no_offset_ik(tmp_path_factory: pytest.TempPathFactory) -> str:
+    """SPEC of the worked IK example with the exercise's classic mistake: the 0.054 m drop
+    between joints 3 and 4 left out of the DH table (a3 = 0)."""
+    src = (Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py").read_text()
+    assert src.count("\nA3 = -0.054") == 1
+    path = tmp_path_factory.mktemp("broken_ik") / "ik_no_offset.py"
+    path.write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
+    return f"{path}:solve"

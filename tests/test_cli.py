@@ -344,3 +344,16 @@ def test_a_bad_gl_backend_stops_only_rendering(tmp_path: Path, gl: str) -> None:
     assert line.startswith("kr210_sim: error: no OpenGL backend") and "Traceback" not in line
     assert f"MUJOCO_GL={gl}" in line and "apt-get install libegl1" in line
     assert not (tmp_path / "s.png").exists()
+
+
+def test_the_report_may_not_overwrite_the_ik_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.paths import ROOT
+
+    user = tmp_path / "my_ik.py"
+    user.write_text((ROOT / "examples" / "ik_dh.py").read_text())
+    text = user.read_text()
+    assert main(["run", "--cycles", "1", "--ik", f"{user}:solve", "--report", str(user)]) == 2
+    assert "--report and --ik name the same file" in _one_line(capsys)
+    assert user.read_text() == text

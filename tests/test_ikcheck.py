@@ -1,0 +1,181 @@
+"""ik-check: the cases, the grading of our IK, the worked example and the classic mistake."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kr210_sim import kinematics
+from kr210_sim.cli import main
+from kr210_sim.ik_plugin import UserIk, load_ik
+from kr210_sim.ikcheck import fixed_cases, random_cases, run_check
+from kr210_sim.robot import load_robot
+from kr210_sim.task import grasp_depth
+
+WORKED = f"{Path(__file__).resolve().parents[1] / 'examples' / 'ik_dh.py'}:solve"
+
+
+def test_the_fixed_cases() -> None:
+    cases = fixed_cases()
+    groups = [c.group for c in cases]
+    assert groups.count("cell") == 9 * 4 + 9  # four poses per slot, nine drop spots
+    assert (groups.count("zero"), groups.count("singular"), groups.count("limits")) == (1, 7, 12)
+    assert len({c.name for c in cases}) == len(cases)
+    (zero,) = (c for c in cases if c.group == "zero")
+    np.testing.assert_allclose(zero.T[:3, 3], (2.153, 0.0, 1.946), atol=1e-12)
+    g = kinematics.geometry()
+    for c in cases:
+        q = kinematics.nearest(c.T, c.q_ref)  # every case is reachable inside the limits
+        assert np.all(q >= g.lower - 1e-9) and np.all(q <= g.upper + 1e-9)
+    grasp = next(c for c in cases if c.name == "slot 5 grasp")
+    depth = grasp_depth(load_robot(), 0.05)  # the cylinder's axis in the gripper frame
+    assert 0.15 < depth < 0.25
+    np.testing.assert_allclose(grasp.T[:3, 0], (1.0, 0.0, 0.0), atol=1e-12)  # towards +x
+    assert grasp.T[0, 3] == pytest.approx(2.6 - depth)  # fingers around slot 5
+    assert grasp.T[2, 3] == pytest.approx(1.556 + 0.125)
+    lims = [c for c in cases if c.group == "limits"]
+    assert max(np.abs(np.minimum(c.q_ref - g.lower, g.upper - c.q_ref)).min() for c in lims) == (
+        pytest.approx(1e-3)
+    )
+
+
+def test_random_cases_are_seeded() -> None:
+    a, b, c = random_cases(5, 1), random_cases(5, 1), random_cases(5, 2)
+    np.testing.assert_array_equal(a[3].T, b[3].T)
+    assert not np.allclose(a[3].T, c[3].T)
+
+
+def test_our_ik_passes_every_case() -> None:
+    result = run_check(load_ik("kr210_sim.kinematics:nearest"), n_random=300, seed=1)
+    s = result.report["summary"]
+    assert result.passed and s["cases"] == 65 + 300 and s["pass_rate"] == 1.0
+    assert s["max_position_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-8
+    assert s["branch_changes"] == 0
+    assert result.text.splitlines()[-1] == (
+        "PASS: 365/365 cases within 1 mm and 1 mrad, inside the joint limits"
+    )
+
+
+def test_the_worked_example_passes_every_case(tmp_path: Path) -> None:
+    report = tmp_path / "ik.json"
+    code = main(["ik-check", "--ik", WORKED, "--cases", "300", "--report", str(report)])
+    assert code == 0
+    data = json.loads(report.read_text())
+    s = data["summary"]
+    assert s["passed"] == s["cases"] == 365
+    assert s["max_position_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-8
+    assert s["branch_changes"] == 0 and s["raised"] == 0
+    assert set(s["groups"]) == {"cell", "zero", "singular", "limits", "random"}
+    rec = data["cases"][0]
+    for key in ("position_error_m", "orientation_error_rad", "within_limits", "passed", "error"):
+        assert key in rec
+    assert data["config"]["ik"] == WORKED
+
+
+def test_the_missing_offset_fails_every_case_by_54_mm(
+    no_offset_ik: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    report, plots = tmp_path / "ik.json", tmp_path / "plots"
+    argv = ["ik-check", "--ik", no_offset_ik, "--cases", "200", "--report", str(report)]
+    assert main([*argv, "--plots", str(plots)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL: 0/265 cases" in out and "worst cases (265 failed)" in out
+    data = json.loads(report.read_text())
+    answered = [r for r in data["cases"] if r["q"] is not None]
+    assert len(answered) > 240  # a few poses near the edge of reach get None
+    # The forearm is modelled 0.054 m off: the wrist centre (and the gripper) land 54 mm from
+    # the pose, whatever the pose; the wrist still sets the orientation exactly.
+    for r in answered:
+        assert r["position_error_m"] == pytest.approx(0.054, abs=1e-6)
+        assert r["wrist_centre_error_m"] == pytest.approx(0.054, abs=1e-6)
+        assert r["orientation_error_rad"] < 1e-9
+        assert "misses the pose by 54 mm" in r["problem"]
+    assert all(r["problem"] == "returned None (unreachable)" for r in data["cases"] if not r["q"])
+    assert sorted(p.name for p in plots.iterdir()) == [
+        "ik_error_histograms.png",
+        "ik_error_workspace.png",
+    ]
+    import matplotlib.image
+
+    img = matplotlib.image.imread(plots / "ik_error_histograms.png")
+    assert img.shape[0] > 300 and img[..., :3].std() > 0.05
+
+
+def test_a_raising_function_is_recorded_with_its_message() -> None:
+    calls = 0
+
+    def picky(T: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+        nonlocal calls
+        calls += 1
+        if T[2, 3] < 1.0:
+            raise ValueError(f"too low: z = {T[2, 3]:.2f}")
+        return kinematics.nearest(T, q_ref)
+
+    result = run_check(UserIk("test:picky", picky), n_random=50, seed=0)
+    s = result.report["summary"]
+    low = [r for r in result.report["cases"] if r["position"][2] < 1.0]
+    assert calls == s["cases"] == 115 and s["raised"] == len(low) > 0
+    assert s["passed"] == s["cases"] - len(low)
+    for r in low:
+        assert r["error"].startswith("ValueError: too low: z = ")
+        assert r["q"] is None and r["position_error_m"] is None and not r["passed"]
+    assert "raised ValueError: too low" in result.text
+    json.dumps(result.report, allow_nan=False)  # no NaN in the report
+
+
+def test_answers_far_from_q_ref_are_flagged_not_failed() -> None:
+    def first_branch(T: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+        return kinematics.inverse(T)[0]  # ignores q_ref
+
+    result = run_check(UserIk("test:first", first_branch), n_random=100, seed=0)
+    s = result.report["summary"]
+    assert result.passed
+    assert s["branch_changes"] > 20
+    kinds = {r["branch_change"] for r in result.report["cases"]} - {None}
+    assert kinds <= {"wrist flip", "arm branch change", "2pi jump", "q4/q6 split"}
+    assert "wrist flip" in kinds and "not the solution nearest q_ref" in result.text
+
+
+@pytest.mark.parametrize(
+    ("source", "message"),
+    [
+        (None, "no such file"),
+        ("def solve(T, q)\n", "syntax error"),
+        ("raise ImportError('sympy is too slow')\n", "raised ImportError: sympy is too slow"),
+        ("def solver(T, q):\n    pass\n", "has no function 'solve' (it defines: solver)"),
+        ("solve = [1, 2]\n", "is a list, not a function"),
+    ],
+)
+def test_a_bad_spec_is_one_line_and_exit_2_before_anything_runs(
+    tmp_path: Path, source: str | None, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "bad.py"
+    if source is not None:
+        path.write_text(source)
+    report = tmp_path / "ik.json"
+    for argv in (
+        ["ik-check", "--ik", f"{path}:solve", "--report", str(report)],
+        ["run", "--ik", f"{path}:solve", "--report", str(report)],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("kr210_sim: error: --ik ") and message in err, err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert not report.exists()
+
+
+def test_cases_must_be_a_count(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["ik-check", "--ik", WORKED, "--cases", "-1"])
+    assert exc.value.code == 2 and "must be >= 0" in capsys.readouterr().err
+
+
+def test_fixed_cases_only(tmp_path: Path) -> None:
+    result = run_check(load_ik(WORKED), n_random=0, report_path=tmp_path / "r.json")
+    assert result.report["summary"]["cases"] == 65
+    assert math.isfinite(result.report["summary"]["wall_time_s"]["per_call_max"])
+    assert json.loads((tmp_path / "r.json").read_text())["summary"]["cases"] == 65
