@@ -1,6 +1,7 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes:
+Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio),
+``evaluate``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes:
 0 success, 1 a run below its pass bar, 2 a usage error or a failure with a one-line message,
 130 interrupted (the report of the cycles completed so far is still written).
 """
@@ -18,6 +19,7 @@ from kr210_sim.errors import ConfigError, Kr210SimError
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
+DEFAULT_VIEW_REPORT = Path("reports/view.json")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -122,6 +124,59 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0 if passed else 1
 
 
+def _speed(text: str) -> float:
+    value: float = _parsed(text, float, "a number")
+    _check(0.0 < value <= 1000.0, f"must be in (0, 1000], got {value}")
+    return value
+
+
+def _port(text: str) -> int:
+    value: int = _parsed(text, int, "a port number")
+    _check(0 <= value <= 65535, f"must be 0-65535, got {value}")
+    return value
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from kr210_sim.live import LiveSettings, run_joints, view_job
+    from kr210_sim.report import summary_table
+    from kr210_sim.runner import RunConfig
+    from kr210_sim.viewer import FREE_CAMERA, ViewerSettings, has_display
+
+    mode = "window" if args.window else "web" if args.web or not has_display() else "window"
+    settings = ViewerSettings(
+        mode=mode,
+        host=args.host,
+        port=args.port,
+        camera=args.camera or FREE_CAMERA,
+        demo=args.demo,
+        joints=args.joints,
+        quality=args.quality,
+    )
+    if args.joints:
+        if args.demo:
+            raise ConfigError("--joints has no task to step through: drop --demo")
+        run_joints(settings)
+        return 0
+    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    result = view_job(config, args.report, settings, live, scene=args.scene)
+    out = sys.stdout
+    summary = result.report["summary"]
+    out.write(summary_table(summary) + "\n")
+    out.write(
+        f"  report: {result.report_path}\n  live pace: {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x), {result.frames} viewer updates\n"
+    )
+    if result.interrupted:
+        return 130
+    passed = summary["success_rate"] >= args.min_success
+    out.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from kr210_sim.evaluate import EvalConfig, evaluate
     from kr210_sim.report import check_writable, write_json_atomic
@@ -187,6 +242,31 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT) -> None:
+    """The options ``run`` and ``view`` share."""
+    cmd.add_argument("--cycles", type=_positive_int, default=10, help="cycles to run (10)")
+    cmd.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
+    cmd.add_argument(
+        "--slot",
+        type=_slot,
+        default=0,
+        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
+    )
+    cmd.add_argument(
+        "--randomize",
+        action="store_true",
+        help="randomise target pose, size, mass and friction per cycle",
+    )
+    cmd.add_argument("--report", type=Path, default=report, help=f"JSON report path ({report})")
+    cmd.add_argument(
+        "--min-success",
+        type=_fraction,
+        default=0.8,
+        help="pass bar: exit 1 below this success rate (0.8)",
+    )
+    cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's argument parser."""
     parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
@@ -196,29 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     run = sub.add_parser("run", help="run and score pick-and-place cycles")
-    run.add_argument("--cycles", type=_positive_int, default=10, help="cycles to run (10)")
-    run.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
-    run.add_argument(
-        "--slot",
-        type=_slot,
-        default=0,
-        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
-    )
-    run.add_argument(
-        "--randomize",
-        action="store_true",
-        help="randomise target pose, size, mass and friction per cycle",
-    )
-    run.add_argument(
-        "--report", type=Path, default=DEFAULT_REPORT, help=f"JSON report path ({DEFAULT_REPORT})"
-    )
-    run.add_argument(
-        "--min-success",
-        type=_fraction,
-        default=0.8,
-        help="pass bar: exit 1 below this success rate (0.8)",
-    )
-    run.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_run_options(run)
     run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
     run.add_argument(
         "--camera",
@@ -237,6 +295,50 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     run.set_defaults(func=_cmd_run)
+
+    view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
+    _add_run_options(view, report=DEFAULT_VIEW_REPORT)
+    where = view.add_mutually_exclusive_group()
+    where.add_argument(
+        "--web",
+        action="store_true",
+        help="serve the viewer to a browser (the default without a display)",
+    )
+    where.add_argument(
+        "--window", action="store_true", help="open a native window (needs a display)"
+    )
+    view.add_argument(
+        "--port", type=_port, default=0, help="web viewer port (0: first free from 8080)"
+    )
+    view.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="interface to listen on (127.0.0.1); 0.0.0.0 exposes the unauthenticated viewer",
+    )
+    view.add_argument(
+        "--camera", default=None, help="start on a named camera (default: orbit from overview)"
+    )
+    view.add_argument(
+        "--demo", action="store_true", help="pause before every phase until Next (key N)"
+    )
+    view.add_argument(
+        "--joints", action="store_true", help="no task: pose the arm with six joint sliders"
+    )
+    view.add_argument(
+        "--quality",
+        choices=("full", "fast"),
+        default="full",
+        help="fast: no shadows, reflections, haze or post-processing (for software WebGL)",
+    )
+    view.add_argument(
+        "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
+    )
+    view.add_argument(
+        "--exit-when-done",
+        action="store_true",
+        help="exit when the cycles are done (default: keep showing until Ctrl-C)",
+    )
+    view.set_defaults(func=_cmd_view)
 
     ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
     ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
