@@ -41,7 +41,7 @@ from kr210_sim.report import strip_wall
 from kr210_sim.robot import load_robot
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
-from kr210_sim.viewer import LiveViewer, ViewerSettings, free_camera_pose
+from kr210_sim.viewer import FAST_OFF, LiveViewer, ViewerSettings, free_camera_pose
 
 import mujoco  # isort: skip
 
@@ -202,7 +202,8 @@ def _joint_mode() -> None:
     robot = load_robot()
     cell = Cell(load_model())
     limits = (robot.q_lower.tolist(), robot.q_upper.tolist())
-    viewer = LiveViewer(cell.model, ViewerSettings(port=free_port(), joints=True), limits)
+    settings = ViewerSettings(port=free_port(), joints=True, quality="fast")
+    viewer = LiveViewer(cell.model, settings, limits)
     try:
         pose = JointPose(viewer, cell, [0.8, -0.2, 0.2, 0.0, 0.0, 0.0])
         q = np.array([0.3, 0.25, -0.4, 1.0, -0.6, 2.0])
@@ -215,7 +216,11 @@ def _joint_mode() -> None:
         T = kinematics.forward(q)
         assert np.linalg.norm(cell.gripper_pose()[:3, 3] - T[:3, 3]) < 1e-3
         assert pose.lines == joint_readout(q, cell.gripper_pose())
-        assert pose.lines[-1].startswith("MuJoCo's gripper_link is 0.")
+        assert pose.lines[-1] == "MuJoCo's gripper_link is 0.00 mm from it"
+        # --quality fast: the viewer draws without shadows, reflections, haze, post-processing
+        flags = viewer.panel.viewer.render_flags.flags
+        assert [flags[int(f)] for f in FAST_OFF] == [0, 0, 0, 0]
+        assert viewer.panel.camera == "free" and viewer.panel.viewer.camera.distance > 2.0
     finally:
         viewer.close()
 
@@ -260,6 +265,14 @@ def test_busy_port_is_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Pat
     err = capsys.readouterr().err
     assert err.startswith(f"kr210_sim: error: cannot serve the viewer on 127.0.0.1:{port}")
     assert len(err.strip().splitlines()) == 1
+
+
+def test_unknown_camera_lists_the_cameras(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["view", "--web", "--camera", "ceiling", "--cycles", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "kr210_sim: error: no camera 'ceiling'; cameras: overview, shelf, bin, gripper"
+    ), err
 
 
 def test_only_loopback_is_private() -> None:
