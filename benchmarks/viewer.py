@@ -73,14 +73,14 @@ class View:
         self.proc.wait(10)
 
 
-def browser_figures(seconds: float) -> float:
+def browser_figures(seconds: float, width: int, height: int) -> float:
     """Animation frames per second Chromium gives the page while the cycles run."""
     from kr210_sim.chromium import Chromium
 
     view = View("--cycles", "10", "--report", "reports/bench_view.json")
     try:
         view.wait_for("viewer: ")
-        with Chromium(width=1200, height=800, timeout=120) as c:
+        with Chromium(width=width, height=height, timeout=120) as c:
             c.open(f"http://127.0.0.1:{view.port}/")
             view.wait_for("Browser connected")
             time.sleep(3.0)  # the model is parsed and the first frames drawn
@@ -148,8 +148,11 @@ def main() -> None:
     if find_chromium() is None:
         print("no Chromium: frame rate not measured")
         return
-    fps = browser_figures(args.fps_seconds)
-    print(f"headless Chromium (SwiftShader, 1200x800) sees {fps:.1f} frames/s on the page")
+    for width, height in ((1200, 800), (640, 400)):
+        fps = browser_figures(args.fps_seconds, width, height)
+        print(
+            f"headless Chromium (SwiftShader, {width}x{height}) sees {fps:.1f} frames/s on the page"
+        )
 
 
 if __name__ == "__main__":
