@@ -268,7 +268,7 @@ def view_job(
                 out.flush()
         except (KeyboardInterrupt, ViewerClosed) as exc:
             interrupted = True
-            why = "interrupted" if isinstance(exc, KeyboardInterrupt) else "viewer closed"
+            why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
             sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
         pacer.finish()
         runner.cell.hooks.remove(pacer)

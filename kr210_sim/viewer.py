@@ -448,7 +448,11 @@ class LiveViewer:
         Raises:
             ViewerClosed: When the viewer has gone (window closed, viewer thread failed).
         """
-        if not self.handle.is_running():
+        try:
+            running = self.handle.is_running()  # re-raises the viewer thread's failure
+        except Exception as exc:
+            raise ViewerClosed(f"the viewer failed: {exc}") from exc
+        if not running:
             raise ViewerClosed("the viewer was closed")
         mujoco.mj_getState(self.model, data, self._state, _STATE)
         mujoco.mj_setState(self.shadow_model, self.shadow_data, self._state, _STATE)
