@@ -1,9 +1,10 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``evaluate``, ``ik-check``, ``build-meshes``, ``build-scene``,
-``snapshot``. Exit codes: 0 success, 1 a run below its pass bar (or an IK failing a case), 2 a
-usage error or a failure with a one-line message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129
-by SIGHUP (the report of the cycles completed so far is still written).
+Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio), ``evaluate``,
+``ik-check``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run
+below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
+message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
+completed so far is still written).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
+DEFAULT_VIEW_REPORT = Path("reports/view.json")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -94,6 +96,16 @@ def _fps(text: str) -> int:
     return value
 
 
+def _load_ik(spec: str | None) -> Any:
+    """The user's IK for ``--ik SPEC`` (None without one); a bad SPEC is a one-line error here,
+    before anything runs."""
+    if spec is None:
+        return None
+    from kr210_sim.ik_plugin import load_ik
+
+    return load_ik(spec)
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from kr210_sim.job import run_job
     from kr210_sim.report import summary_table
@@ -101,11 +113,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from kr210_sim.video import VideoSettings
 
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
-    ik = None
-    if args.ik is not None:  # a bad SPEC is a one-line error here, before anything runs
-        from kr210_sim.ik_plugin import load_ik
-
-        ik = load_ik(args.ik)
+    ik = _load_ik(args.ik)
     video = None
     # The video options given on the command line; VideoSettings holds the defaults.
     given: dict[str, Any] = {
@@ -146,6 +154,60 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if job.video_error is not None:
         sys.stderr.write(f"kr210_sim: error: {job.video_error} (the report was written)\n")
         return 2
+    passed = summary["success_rate"] >= args.min_success
+    out.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
+def _speed(text: str) -> float:
+    value: float = _parsed(text, float, "a number")
+    _check(0.0 < value <= 1000.0, f"must be in (0, 1000], got {value}")
+    return value
+
+
+def _port(text: str) -> int:
+    value: int = _parsed(text, int, "a port number")
+    _check(0 <= value <= 65535, f"must be 0-65535, got {value}")
+    return value
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from kr210_sim.live import LiveSettings, run_joints, view_job
+    from kr210_sim.report import summary_table
+    from kr210_sim.runner import RunConfig
+    from kr210_sim.viewer import FREE_CAMERA, ViewerSettings, has_display
+
+    mode = "window" if args.window else "web" if args.web or not has_display() else "window"
+    settings = ViewerSettings(
+        mode=mode,
+        host=args.host,
+        port=args.port,
+        camera=args.camera or FREE_CAMERA,
+        demo=args.demo,
+        joints=args.joints,
+        quality=args.quality,
+    )
+    if args.joints:
+        if args.demo:
+            raise ConfigError("--joints has no task to step through: drop --demo")
+        run_joints(settings)
+        return 0
+    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    ik = _load_ik(args.ik)
+    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik)
+    out = sys.stdout
+    summary = result.report["summary"]
+    out.write(summary_table(summary) + "\n")
+    out.write(
+        f"  report: {result.report_path}\n  live pace: {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x), {result.frames} viewer updates\n"
+    )
+    if result.interrupted:
+        return result.exit_code or 130
     passed = summary["success_rate"] >= args.min_success
     out.write(
         f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
@@ -233,6 +295,37 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT) -> None:
+    """The options ``run`` and ``view`` share."""
+    cmd.add_argument("--cycles", type=_cycles, default=10, help="cycles to run (10)")
+    cmd.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
+    cmd.add_argument(
+        "--slot",
+        type=_slot,
+        default=0,
+        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
+    )
+    cmd.add_argument(
+        "--randomize",
+        action="store_true",
+        help="randomise target pose, size, mass and friction per cycle",
+    )
+    cmd.add_argument("--report", type=Path, default=report, help=f"JSON report path ({report})")
+    cmd.add_argument(
+        "--min-success",
+        type=_fraction,
+        default=0.8,
+        help="pass bar: exit 1 below this success rate (0.8)",
+    )
+    cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    cmd.add_argument(
+        "--ik",
+        default=None,
+        metavar="SPEC",
+        help="plan with your IK: package.module:function or path/to/file.py:function",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's argument parser."""
     parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
@@ -242,29 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     run = sub.add_parser("run", help="run and score pick-and-place cycles")
-    run.add_argument("--cycles", type=_cycles, default=10, help="cycles to run (10)")
-    run.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
-    run.add_argument(
-        "--slot",
-        type=_slot,
-        default=0,
-        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
-    )
-    run.add_argument(
-        "--randomize",
-        action="store_true",
-        help="randomise target pose, size, mass and friction per cycle",
-    )
-    run.add_argument(
-        "--report", type=Path, default=DEFAULT_REPORT, help=f"JSON report path ({DEFAULT_REPORT})"
-    )
-    run.add_argument(
-        "--min-success",
-        type=_fraction,
-        default=0.8,
-        help="pass bar: exit 1 below this success rate (0.8)",
-    )
-    run.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_run_options(run)
     run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
     run.add_argument(
         "--camera",
@@ -282,13 +353,51 @@ def build_parser() -> argparse.ArgumentParser:
         help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
-    run.add_argument(
-        "--ik",
-        default=None,
-        metavar="SPEC",
-        help="plan with your IK: package.module:function or path/to/file.py:function",
-    )
     run.set_defaults(func=_cmd_run)
+
+    view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
+    _add_run_options(view, report=DEFAULT_VIEW_REPORT)
+    where = view.add_mutually_exclusive_group()
+    where.add_argument(
+        "--web",
+        action="store_true",
+        help="serve the viewer to a browser (the default without a display)",
+    )
+    where.add_argument(
+        "--window", action="store_true", help="open a native window (needs a display)"
+    )
+    view.add_argument(
+        "--port", type=_port, default=0, help="web viewer port (0: first free from 8080)"
+    )
+    view.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="interface to listen on (127.0.0.1); 0.0.0.0 exposes the unauthenticated viewer",
+    )
+    view.add_argument(
+        "--camera", default=None, help="start on a named camera (default: orbit from overview)"
+    )
+    view.add_argument(
+        "--demo", action="store_true", help="pause before every phase until Next (key N)"
+    )
+    view.add_argument(
+        "--joints", action="store_true", help="no task: pose the arm with six joint sliders"
+    )
+    view.add_argument(
+        "--quality",
+        choices=("full", "fast"),
+        default="full",
+        help="fast: no shadows, reflections, haze or post-processing (for software WebGL)",
+    )
+    view.add_argument(
+        "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
+    )
+    view.add_argument(
+        "--exit-when-done",
+        action="store_true",
+        help="exit when the cycles are done (default: keep showing until Ctrl-C)",
+    )
+    view.set_defaults(func=_cmd_view)
 
     ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
     ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")

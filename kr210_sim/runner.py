@@ -235,6 +235,9 @@ class Runner:
             "phase": "idle",
             "event": "",
         }
+        #: Called with the phase name before every motion or hold segment runs (a viewer's
+        #: demo mode blocks in it until the user presses Next); it must not touch the cell.
+        self.on_phase: Callable[[str], None] | None = None
 
     # -- one cycle -----------------------------------------------------------------------
     @property
@@ -267,8 +270,13 @@ class Runner:
         _, R = self.cell.target_pose(index)
         return float(np.degrees(np.arccos(np.clip(abs(R[2, 2]), 0.0, 1.0))))
 
+    def _enter(self, phase: str) -> None:
+        self.status["phase"] = phase
+        if self.on_phase is not None:
+            self.on_phase(phase)
+
     def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
-        self.status["phase"] = move.phase
+        self._enter(move.phase)
         dt = self.cell.track(move.trajectory, rec, move.phase)
         phases[move.phase] = phases.get(move.phase, 0.0) + dt
         self.q_cmd = move.q_end
@@ -281,7 +289,7 @@ class Runner:
         phases: dict[str, float],
         until: Callable[[Cell], bool] | None = None,
     ) -> float:
-        self.status["phase"] = phase
+        self._enter(phase)
         dt = self.cell.track(hold(self.q_cmd, seconds), rec, phase, until=until)
         phases[phase] = phases.get(phase, 0.0) + dt
         return dt
