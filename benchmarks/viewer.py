@@ -12,17 +12,12 @@ from __future__ import annotations
 import argparse
 import io
 import re
-import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+from kr210_sim.chromium import ViewProcess, free_port
 
 
 def pace(speed: float, cycles: int) -> tuple[float, float]:
@@ -39,45 +34,11 @@ def pace(speed: float, cycles: int) -> tuple[float, float]:
     return float(m.group(1)), wall
 
 
-class View:
-    """``view`` in a subprocess until stopped; its output lines collected."""
-
-    def __init__(self, *args: str) -> None:
-        self.port = free_port()
-        cmd = [sys.executable, "-u", "-m", "kr210_sim", "view", "--web", "--port", str(self.port)]
-        self.proc = subprocess.Popen(
-            [*cmd, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-        )
-        self.lines: list[str] = []
-        import threading
-
-        threading.Thread(target=self._pump, daemon=True).start()
-
-    def _pump(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append(line)
-
-    def wait_for(self, text: str, timeout: float = 60.0, tick: object = None) -> None:
-        deadline = time.monotonic() + timeout
-        while not any(text in line for line in list(self.lines)):
-            if time.monotonic() > deadline or self.proc.poll() is not None:
-                raise SystemExit(f"no {text!r} from view:\n{''.join(self.lines[-20:])}")
-            if callable(tick):
-                tick()
-            else:
-                time.sleep(0.05)
-
-    def stop(self) -> None:
-        self.proc.terminate()
-        self.proc.wait(10)
-
-
 def browser_figures(seconds: float, width: int, height: int) -> float:
     """Animation frames per second Chromium gives the page while the cycles run."""
     from kr210_sim.chromium import Chromium
 
-    view = View("--cycles", "10", "--report", "reports/bench_view.json")
+    view = ViewProcess("--cycles", "10", "--report", "reports/bench_view.json")
     try:
         view.wait_for("viewer: ")
         with Chromium(width=width, height=height, timeout=120) as c:
@@ -97,7 +58,9 @@ def screenshot(path: Path, width: int, height: int) -> None:
 
     from kr210_sim.chromium import Chromium
 
-    view = View("--demo", "--speed", "2", "--cycles", "10", "--report", "reports/bench_view.json")
+    view = ViewProcess(
+        "--demo", "--speed", "2", "--cycles", "10", "--report", "reports/bench_view.json"
+    )
     try:
         view.wait_for("demo: next phase approach")
         with Chromium(width=width, height=height, timeout=120, manual_frames=True) as c:
@@ -109,7 +72,7 @@ def screenshot(path: Path, width: int, height: int) -> None:
                     try:
                         view.wait_for(f"demo: next phase {phase}", 8.0, tick=c.frame)
                         break
-                    except SystemExit:
+                    except AssertionError:
                         continue
             t_end = time.monotonic() + 8.0  # the page catches up with the held state
             while time.monotonic() < t_end:

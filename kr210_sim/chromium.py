@@ -13,10 +13,14 @@ import contextlib
 import json
 import os
 import shutil
+import socket
 import subprocess
+import sys
 import tempfile
+import threading
 import time
 import urllib.request
+from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -231,3 +235,66 @@ class Chromium:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class ViewProcess:
+    """``python -m kr210_sim view`` in a subprocess, its output collected line by line
+    (the browser tests, the viewer benchmark, the README screenshot).
+
+
+    Args:
+        args: Options after ``view --web --port P``.
+    """
+
+    def __init__(self, *args: str) -> None:
+        self.port = free_port()
+        cmd = [sys.executable, "-u", "-m", "kr210_sim", "view", "--web", "--port", str(self.port)]
+        self.proc = subprocess.Popen(
+            [*cmd, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
+        self.lines: list[str] = []
+        threading.Thread(target=self._pump, daemon=True).start()
+
+    def _pump(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line.rstrip())
+
+    def count(self, text: str) -> int:
+        """Output lines holding ``text`` so far."""
+        return sum(text in line for line in list(self.lines))
+
+    def wait_for(
+        self, text: str, timeout: float = 60.0, tick: Callable[[], object] | None = None
+    ) -> None:
+        """Wait up to ``timeout`` [s] for a line holding ``text``, calling ``tick`` meanwhile."""
+        deadline = time.monotonic() + timeout
+        while not self.count(text):
+            assert self.proc.poll() is None, "\n".join(self.lines)
+            assert time.monotonic() < deadline, f"no {text!r} in:\n" + "\n".join(self.lines)
+            if tick is not None:
+                tick()
+            else:
+                time.sleep(0.05)
+
+    @property
+    def url(self) -> str:
+        """The page's address."""
+        return f"http://127.0.0.1:{self.port}/"
+
+    def stop(self) -> None:
+        """Terminate the process (kill it after 10 s)."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(10)

@@ -10,8 +10,6 @@ import multiprocessing
 import os
 import signal
 import socket
-import subprocess
-import sys
 import threading
 import time
 import traceback
@@ -24,6 +22,7 @@ import numpy.typing as npt
 import pytest
 
 from kr210_sim import kinematics
+from kr210_sim.chromium import ViewProcess, free_port
 from kr210_sim.cli import main
 from kr210_sim.control import Cell
 from kr210_sim.job import run_job
@@ -73,12 +72,6 @@ def _child(queue: Any, fn: Callable[..., None], args: tuple[Any, ...]) -> None:
         queue.put(("ok", ""))
     except BaseException:
         queue.put(("error", traceback.format_exc()))
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 # -- pieces ------------------------------------------------------------------------------------
@@ -301,50 +294,6 @@ def decode(png: bytes) -> npt.NDArray[np.int_]:
     from PIL import Image
 
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
-
-
-class ViewProcess:
-    """``python -m kr210_sim view`` in a subprocess, its output collected line by line."""
-
-    def __init__(self, *args: str) -> None:
-        self.port = free_port()
-        cmd = [sys.executable, "-u", "-m", "kr210_sim", "view", "--web", "--port", str(self.port)]
-        self.proc = subprocess.Popen(
-            [*cmd, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-        )
-        self.lines: list[str] = []
-        threading.Thread(target=self._pump, daemon=True).start()
-
-    def _pump(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append(line.rstrip())
-
-    def count(self, text: str) -> int:
-        return sum(text in line for line in list(self.lines))
-
-    def wait_for(self, text: str, timeout: float, tick: Callable[[], object] | None = None) -> None:
-        deadline = time.monotonic() + timeout
-        while not self.count(text):
-            assert self.proc.poll() is None, "\n".join(self.lines)
-            assert time.monotonic() < deadline, f"no {text!r} in:\n" + "\n".join(self.lines)
-            if tick is not None:
-                tick()
-            else:
-                time.sleep(0.05)
-
-    @property
-    def url(self) -> str:
-        return f"http://127.0.0.1:{self.port}/"
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
 
 
 @pytest.fixture(scope="module")
