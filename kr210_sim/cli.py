@@ -13,12 +13,16 @@ import argparse
 import logging
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from kr210_sim import __version__
 from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
 from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
+
+if TYPE_CHECKING:
+    from kr210_sim.api import RunReport
+    from kr210_sim.video import VideoSettings
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
@@ -107,13 +111,11 @@ def _load_ik(spec: str | None) -> Any:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.job import run_job
-    from kr210_sim.report import summary_table
-    from kr210_sim.runner import RunConfig
+    from kr210_sim.api import RunInterrupted, RunReport, run
+    from kr210_sim.errors import VideoFailedError
     from kr210_sim.video import VideoSettings
 
-    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
-    ik = _load_ik(args.ik)
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
     video = None
     # The video options given on the command line; VideoSettings holds the defaults.
     given: dict[str, Any] = {
@@ -131,9 +133,48 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene, ik=ik)
+    interrupted: RunInterrupted | None = None
+    try:
+        result = run(
+            args.cycles,
+            args.seed,
+            args.slot,
+            args.randomize,
+            ik=ik,
+            video=video,
+            plots=args.plots,
+            scene=args.scene,
+            report=args.report,
+            out=sys.stdout,
+        )
+    except RunInterrupted as exc:
+        interrupted, result = exc, exc.report  # type: ignore[assignment]
+    except VideoFailedError as exc:
+        result = exc.report
+    assert isinstance(result, RunReport)
+    _print_run(result, video)
+    if interrupted is not None:
+        if result.video_error is not None:
+            sys.stderr.write(f"kr210_sim: error: {result.video_error}\n")
+        return exit_code(interrupted)
+    if result.video_error is not None:
+        sys.stderr.write(f"kr210_sim: error: {result.video_error} (the report was written)\n")
+        return 2
+    summary = result.summary
+    passed = result.passed(args.min_success)
+    sys.stdout.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
+def _print_run(result: RunReport, video: VideoSettings | None) -> None:
+    """The summary table and the outputs of ``run`` on stdout."""
+    from kr210_sim.report import summary_table
+
     out = sys.stdout
-    summary = job.report["summary"]
+    summary = dict(result.summary)
     out.write(summary_table(summary) + "\n")
     if "ik" in summary:
         s, t = summary["ik"], summary["ik"]["wall_time_s"]
@@ -141,25 +182,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
             f"{1e6 * t['per_call_max']:.1f} us max per call\n"
         )
-    out.write(f"  report: {job.report_path}\n")
-    if video is not None and job.video_error is None:
-        written = f"({job.video_frames} frames)" if job.video_frames else "not written (no frames)"
+    out.write(f"  report: {result.path}\n")
+    if video is not None and result.video_error is None:
+        frames = result.video_frames
+        written = f"({frames} frames)" if frames else "not written (no frames)"
         out.write(f"  video: {video.path} {written}\n")
-    if job.plot_paths:
-        out.write(f"  plots: {', '.join(str(p) for p in job.plot_paths)}\n")
-    if job.interrupted is not None:
-        if job.video_error is not None:
-            sys.stderr.write(f"kr210_sim: error: {job.video_error}\n")
-        return exit_code(job.interrupted)
-    if job.video_error is not None:
-        sys.stderr.write(f"kr210_sim: error: {job.video_error} (the report was written)\n")
-        return 2
-    passed = summary["success_rate"] >= args.min_success
-    out.write(
-        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
-        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
-    )
-    return 0 if passed else 1
+    if result.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
 
 
 def _speed(text: str) -> float:
@@ -258,11 +287,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_ik_check(args: argparse.Namespace) -> int:
-    from kr210_sim.ik_plugin import load_ik
-    from kr210_sim.ikcheck import run_check
+    from kr210_sim.api import ik_check
 
-    ik = load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
-    result = run_check(ik, args.cases, args.seed, args.report, args.plots)
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
     out = sys.stdout
     out.write(result.text + "\n")
     out.write(f"  report: {args.report}\n")

@@ -6,6 +6,8 @@ it into a one-line message and an exit code. Messages say what went wrong and wh
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class Kr210SimError(Exception):
     """Base class of every error raised on purpose by kr210_sim."""
@@ -25,6 +27,19 @@ class SceneError(Kr210SimError):
 
 class RenderError(Kr210SimError):
     """Offscreen rendering or video encoding is unavailable or failed."""
+
+
+class VideoFailedError(RenderError):
+    """The cycles ran and the report was written, but the video could not be made.
+
+    Args:
+        message: Why, in one line.
+        report: The run's report (a :class:`kr210_sim.api.RunReport`).
+    """
+
+    def __init__(self, message: str, report: Any = None) -> None:
+        super().__init__(message)
+        self.report = report
 
 
 class PlanningError(Kr210SimError):
