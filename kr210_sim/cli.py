@@ -1,8 +1,8 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
 Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio), ``evaluate``,
-``ik-check``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run
-below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
+``ik-check``, ``demos``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1
+a run below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
 message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
 completed so far is still written).
 """
@@ -28,6 +28,7 @@ DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
+DEFAULT_DEMOS = Path("demos/pick_place.hdf5")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -299,6 +300,17 @@ def _cmd_ik_check(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _cmd_demos(args: argparse.Namespace) -> int:
+    from kr210_sim.demos import record_demos
+
+    s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
+    sys.stdout.write(
+        f"  episodes   {s.episodes} ({s.successes} succeeded)\n"
+        f"  samples    {s.samples} policy steps\n  dataset: {s.path}\n"
+    )
+    return 0
+
+
 def _cmd_build_scene(args: argparse.Namespace) -> int:
     from kr210_sim.scene import build_scene
 
@@ -464,6 +476,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ikc.set_defaults(func=_cmd_ik_check)
+
+    demos = sub.add_parser(
+        "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"
+    )
+    demos.add_argument("--episodes", type=_positive_int, default=10, help="episodes (10)")
+    demos.add_argument(
+        "--out", type=Path, default=DEFAULT_DEMOS, help=f"HDF5 file ({DEFAULT_DEMOS})"
+    )
+    demos.add_argument(
+        "--control", choices=("joint", "cartesian"), default="joint", help="action space (joint)"
+    )
+    demos.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
+    demos.add_argument("--randomize", action="store_true", help="randomise the cylinders")
+    demos.set_defaults(func=_cmd_demos)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
     scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")

@@ -17,6 +17,11 @@ class ConfigError(Kr210SimError, ValueError):
     """A configuration value or a command-line argument is invalid (a usage error)."""
 
 
+class ActionError(ConfigError):
+    """An action given to the Gymnasium environment is unusable: wrong shape, NaN or infinite
+    entries, or entries outside the action space's box."""
+
+
 class UnreachablePoseError(Kr210SimError, ValueError):
     """No inverse-kinematics solution exists inside the joint limits for a requested pose."""
 
