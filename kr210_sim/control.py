@@ -70,20 +70,22 @@ def hold(q: npt.ArrayLike, duration: float) -> JointTrajectory:
 
 @dataclass(frozen=True, slots=True)
 class _Ramp:
-    """A trajectory that moves at constant joint velocity ``qd`` from ``q`` for ``duration``."""
+    """A trajectory that moves at constant joint velocity ``qd`` from ``q`` for ``duration``
+    [s], holding its end state (at rest) after it."""
 
     q: FloatArray
     qd: FloatArray
     duration: float
 
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        tc = min(max(t, 0.0), self.duration)
-        return self.q + self.qd * tc, self.qd.copy(), np.zeros_like(self.q)
+        q, qd, qdd = self.sample_many(np.array([t]))
+        return q[0], qd[0], qdd[0]
 
     def sample_many(self, ts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        tc = np.clip(np.asarray(ts, dtype=np.float64), 0.0, self.duration)[:, None]
-        q = self.q + self.qd * tc
-        return q, np.broadcast_to(self.qd, q.shape).copy(), np.zeros_like(q)
+        t = np.asarray(ts, dtype=np.float64)[:, None]
+        q = self.q + self.qd * np.clip(t, 0.0, self.duration)
+        moving = (t >= 0.0) & (t <= self.duration)  # at rest before and after
+        return q, np.where(moving, self.qd, 0.0), np.zeros_like(q)
 
 
 def ramp(q: npt.ArrayLike, qd: npt.ArrayLike, duration: float) -> JointTrajectory:

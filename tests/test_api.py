@@ -177,3 +177,24 @@ def test_the_readme_example_runs_as_written(tmp_path: Path) -> None:
             [sys.executable, "-c", block], cwd=tmp_path, capture_output=True, text=True, timeout=300
         )
         assert proc.returncode == 0, proc.stderr
+
+
+def test_a_failed_video_raises_with_the_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import imageio_ffmpeg
+
+    from kr210_sim.errors import RenderError, VideoFailedError
+
+    def missing() -> str:
+        raise RuntimeError("No ffmpeg exe could be found")
+
+    monkeypatch.setattr(imageio_ffmpeg, "get_ffmpeg_exe", missing)
+    path = tmp_path / "r.json"
+    with pytest.raises(VideoFailedError) as exc:
+        kr210_sim.run(cycles=1, slot=1, report=path, video=tmp_path / "v.mp4")
+    assert isinstance(exc.value, RenderError) and "ffmpeg is not available" in str(exc.value)
+    report = exc.value.report
+    assert isinstance(report, RunReport) and report.video_error == str(exc.value)
+    assert report.cycles[0].success and report.video_path is None
+    assert json.loads(path.read_text())["summary"]["successes"] == 1
