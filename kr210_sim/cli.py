@@ -1,8 +1,8 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
 Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio), ``evaluate``,
-``ik-check``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run
-below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
+``ik-check``, ``demos``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1
+a run below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
 message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
 completed so far is still written).
 """
@@ -13,17 +13,22 @@ import argparse
 import logging
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from kr210_sim import __version__
 from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
 from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
 
+if TYPE_CHECKING:
+    from kr210_sim.api import RunReport
+    from kr210_sim.video import VideoSettings
+
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
+DEFAULT_DEMOS = Path("demos/pick_place.hdf5")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -107,13 +112,11 @@ def _load_ik(spec: str | None) -> Any:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.job import run_job
-    from kr210_sim.report import summary_table
-    from kr210_sim.runner import RunConfig
+    from kr210_sim.api import RunInterrupted, RunReport, run
+    from kr210_sim.errors import VideoFailedError
     from kr210_sim.video import VideoSettings
 
-    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
-    ik = _load_ik(args.ik)
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
     video = None
     # The video options given on the command line; VideoSettings holds the defaults.
     given: dict[str, Any] = {
@@ -131,9 +134,48 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene, ik=ik)
+    interrupted: RunInterrupted | None = None
+    try:
+        result = run(
+            args.cycles,
+            args.seed,
+            args.slot,
+            args.randomize,
+            ik=ik,
+            video=video,
+            plots=args.plots,
+            scene=args.scene,
+            report=args.report,
+            out=sys.stdout,
+        )
+    except RunInterrupted as exc:
+        interrupted, result = exc, exc.report  # type: ignore[assignment]
+    except VideoFailedError as exc:
+        result = exc.report
+    assert isinstance(result, RunReport)
+    _print_run(result, video)
+    if interrupted is not None:
+        if result.video_error is not None:
+            sys.stderr.write(f"kr210_sim: error: {result.video_error}\n")
+        return exit_code(interrupted)
+    if result.video_error is not None:
+        sys.stderr.write(f"kr210_sim: error: {result.video_error} (the report was written)\n")
+        return 2
+    summary = result.summary
+    passed = result.passed(args.min_success)
+    sys.stdout.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
+def _print_run(result: RunReport, video: VideoSettings | None) -> None:
+    """The summary table and the outputs of ``run`` on stdout."""
+    from kr210_sim.report import summary_table
+
     out = sys.stdout
-    summary = job.report["summary"]
+    summary = dict(result.summary)
     out.write(summary_table(summary) + "\n")
     if "ik" in summary:
         s, t = summary["ik"], summary["ik"]["wall_time_s"]
@@ -141,25 +183,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
             f"{1e6 * t['per_call_max']:.1f} us max per call\n"
         )
-    out.write(f"  report: {job.report_path}\n")
-    if video is not None and job.video_error is None:
-        written = f"({job.video_frames} frames)" if job.video_frames else "not written (no frames)"
+    out.write(f"  report: {result.path}\n")
+    if video is not None and result.video_error is None:
+        frames = result.video_frames
+        written = f"({frames} frames)" if frames else "not written (no frames)"
         out.write(f"  video: {video.path} {written}\n")
-    if job.plot_paths:
-        out.write(f"  plots: {', '.join(str(p) for p in job.plot_paths)}\n")
-    if job.interrupted is not None:
-        if job.video_error is not None:
-            sys.stderr.write(f"kr210_sim: error: {job.video_error}\n")
-        return exit_code(job.interrupted)
-    if job.video_error is not None:
-        sys.stderr.write(f"kr210_sim: error: {job.video_error} (the report was written)\n")
-        return 2
-    passed = summary["success_rate"] >= args.min_success
-    out.write(
-        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
-        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
-    )
-    return 0 if passed else 1
+    if result.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
 
 
 def _speed(text: str) -> float:
@@ -258,17 +288,27 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_ik_check(args: argparse.Namespace) -> int:
-    from kr210_sim.ik_plugin import load_ik
-    from kr210_sim.ikcheck import run_check
+    from kr210_sim.api import ik_check
 
-    ik = load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
-    result = run_check(ik, args.cases, args.seed, args.report, args.plots)
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
     out = sys.stdout
     out.write(result.text + "\n")
     out.write(f"  report: {args.report}\n")
     if result.plot_paths:
         out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
     return 0 if result.passed else 1
+
+
+def _cmd_demos(args: argparse.Namespace) -> int:
+    from kr210_sim.demos import record_demos
+
+    s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
+    sys.stdout.write(
+        f"  episodes   {s.episodes} ({s.successes} succeeded)\n"
+        f"  samples    {s.samples} policy steps\n  dataset: {s.path}\n"
+    )
+    return 0
 
 
 def _cmd_build_scene(args: argparse.Namespace) -> int:
@@ -436,6 +476,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ikc.set_defaults(func=_cmd_ik_check)
+
+    demos = sub.add_parser(
+        "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"
+    )
+    demos.add_argument("--episodes", type=_positive_int, default=10, help="episodes (10)")
+    demos.add_argument(
+        "--out", type=Path, default=DEFAULT_DEMOS, help=f"HDF5 file ({DEFAULT_DEMOS})"
+    )
+    demos.add_argument(
+        "--control", choices=("joint", "cartesian"), default="joint", help="action space (joint)"
+    )
+    demos.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
+    demos.add_argument("--randomize", action="store_true", help="randomise the cylinders")
+    demos.set_defaults(func=_cmd_demos)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
     scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")

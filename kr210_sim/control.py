@@ -68,6 +68,39 @@ def hold(q: npt.ArrayLike, duration: float) -> JointTrajectory:
     return _Hold(np.asarray(q, dtype=np.float64).copy(), float(duration))
 
 
+@dataclass(frozen=True, slots=True)
+class _Ramp:
+    """A trajectory that moves at constant joint velocity ``qd`` from ``q`` for ``duration``
+    [s], holding its end state (at rest) after it."""
+
+    q: FloatArray
+    qd: FloatArray
+    duration: float
+
+    def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        q, qd, qdd = self.sample_many(np.array([t]))
+        return q[0], qd[0], qdd[0]
+
+    def sample_many(self, ts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        t = np.asarray(ts, dtype=np.float64)[:, None]
+        q = self.q + self.qd * np.clip(t, 0.0, self.duration)
+        moving = (t >= 0.0) & (t <= self.duration)  # at rest before and after
+        return q, np.where(moving, self.qd, 0.0), np.zeros_like(q)
+
+
+def ramp(q: npt.ArrayLike, qd: npt.ArrayLike, duration: float) -> JointTrajectory:
+    """A trajectory from ``q`` [rad] at constant velocity ``qd`` [rad/s] for ``duration`` [s].
+
+    One policy step of :class:`kr210_sim.pick_place_env.PickPlaceEnv`: :meth:`Cell.track` feeds
+    the velocity forward to the servos (no acceleration: the command changes once a step).
+    """
+    return _Ramp(
+        np.asarray(q, dtype=np.float64).copy(),
+        np.asarray(qd, dtype=np.float64).copy(),
+        float(duration),
+    )
+
+
 #: Called after every physics step with the cell (read only): used by the video recorder.
 StepHook = Callable[["Cell"], None]
 
@@ -254,6 +287,48 @@ class Cell:
     def close_gripper(self) -> None:
         """Command the fingers fully closed (the force range caps the grip force)."""
         self.set_gripper(float(self.model.actuator_ctrlrange[self.handles.grip_act, 1]))
+
+    def step_command(
+        self,
+        q: npt.ArrayLike,
+        qd: npt.ArrayLike,
+        n: int,
+        until: Callable[[Cell], bool] | None = None,
+    ) -> None:
+        """Drive the arm along ``q + qd t`` for ``n`` physics steps: one policy command.
+
+        The servo law of :meth:`track` for a constant-velocity command (velocity feed-forward,
+        Coriolis and centrifugal forces; no acceleration term), so it steps exactly as
+        ``track(ramp(q, qd, n * timestep))`` does, without sampling or recording anything. The
+        gripper holds its command; hooks run after every step.
+
+        Args:
+            q: Commanded joint state at the first step [rad].
+            qd: Commanded joint velocity [rad/s].
+            n: Physics steps.
+            until: Optional predicate checked after every step; stepping stops when it is true.
+        """
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        v = np.asarray(qd, dtype=np.float64)
+        u0 = np.asarray(q, dtype=np.float64) + v * (self.kv / self.kp)
+        inv_kp = 1.0 / self.kp
+        ctrl, bias, gcomp = d.ctrl, d.qfrc_bias, d.qfrc_gravcomp
+        arm_act, arm_v, grip_act, grip = (
+            self._arm_act,
+            self._arm_v,
+            self.handles.grip_act,
+            self.grip_ctrl,
+        )
+        step, hooks = mujoco.mj_step, self.hooks
+        for k in range(n):
+            ctrl[arm_act] = u0 + v * (dt * k) + (bias[arm_v] - gcomp[arm_v]) * inv_kp
+            ctrl[grip_act] = grip
+            step(m, d)
+            for hook in hooks:
+                hook(self)
+            if until is not None and until(self):
+                break
 
     def track(
         self,

@@ -6,6 +6,8 @@ it into a one-line message and an exit code. Messages say what went wrong and wh
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class Kr210SimError(Exception):
     """Base class of every error raised on purpose by kr210_sim."""
@@ -13,6 +15,11 @@ class Kr210SimError(Exception):
 
 class ConfigError(Kr210SimError, ValueError):
     """A configuration value or a command-line argument is invalid (a usage error)."""
+
+
+class ActionError(ConfigError):
+    """An action given to the Gymnasium environment is unusable: wrong shape, NaN or infinite
+    entries, or entries outside the action space's box."""
 
 
 class UnreachablePoseError(Kr210SimError, ValueError):
@@ -25,6 +32,19 @@ class SceneError(Kr210SimError):
 
 class RenderError(Kr210SimError):
     """Offscreen rendering or video encoding is unavailable or failed."""
+
+
+class VideoFailedError(RenderError):
+    """The cycles ran and the report was written, but the video could not be made.
+
+    Args:
+        message: Why, in one line.
+        report: The run's report (a :class:`kr210_sim.api.RunReport`).
+    """
+
+    def __init__(self, message: str, report: Any = None) -> None:
+        super().__init__(message)
+        self.report = report
 
 
 class PlanningError(Kr210SimError):

@@ -201,6 +201,25 @@ def load_ik(spec: str) -> UserIk:
     return UserIk(spec, fn)
 
 
+def ik_from_callable(fn: Callable[..., Any]) -> UserIk:
+    """A :class:`UserIk` for a Python callable with the ``solve(T, q_ref)`` contract.
+
+    Its SPEC (what reports and messages name) is ``module:qualname``; like any :class:`UserIk`
+    it pickles as that SPEC, which re-imports only a module-level function (a lambda or a
+    closure cannot be sent to another process).
+
+    Raises:
+        IkSpecError: When ``fn`` is not callable.
+    """
+    if not callable(fn):
+        raise IkSpecError(
+            f"ik must be a SPEC string or a callable solve(T, q_ref), got a {type(fn).__name__}"
+        )
+    module = getattr(fn, "__module__", None) or "__main__"
+    name = getattr(fn, "__qualname__", None) or type(fn).__name__
+    return UserIk(f"{module}:{name}", fn)
+
+
 # --------------------------------------------------------------------------- judging
 @dataclass(frozen=True, slots=True)
 class Assessment:

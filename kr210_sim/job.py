@@ -24,7 +24,7 @@ from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_s
 from kr210_sim.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.plots import PLOT_NAMES
 from kr210_sim.report import build_report, cycle_line, write_json_atomic
-from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.runner import CycleResult, RunConfig, Runner
 from kr210_sim.scene import load_model
 from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
 
@@ -35,25 +35,27 @@ class JobResult:
 
     Attributes:
         report: The JSON-ready report.
-        report_path: Where it was written.
+        report_path: Where it was written (None: not written).
         interrupted: The interrupt that stopped the run early (Ctrl-C, SIGTERM), or None.
         video_frames: Frames written to the video (0 without one).
         video_error: The one-line reason the video failed, or None.
         plot_paths: PNG plots written.
         sim_time: Simulated time at the end of the job, closing shot included [s].
+        results: The cycles run, as the runner scored them.
     """
 
     report: dict[str, Any]
-    report_path: Path
+    report_path: Path | None
     interrupted: KeyboardInterrupt | None = None
     video_frames: int = 0
     video_error: str | None = None
     plot_paths: list[Path] = field(default_factory=list)
     sim_time: float = 0.0
+    results: list[CycleResult] = field(default_factory=list)
 
 
 def check_outputs(
-    report_path: Path,
+    report_path: Path | None,
     video: VideoSettings | None,
     plots_dir: Path | None,
     scene: Path | None,
@@ -65,7 +67,8 @@ def check_outputs(
         ConfigError: An output path is unwritable, two outputs name one file, or an output names
             an input (the scene, the URDF, the IK file).
     """
-    check_writable(report_path)
+    if report_path is not None:
+        check_writable(report_path)
     outputs: dict[str, Path | None] = {"--report": report_path}
     if video is not None:
         check_writable(video.path)
@@ -85,7 +88,7 @@ def check_outputs(
 
 def run_job(
     config: RunConfig,
-    report_path: Path,
+    report_path: Path | None,
     video: VideoSettings | None = None,
     plots_dir: Path | None = None,
     out: TextIO | None = None,
@@ -97,7 +100,7 @@ def run_job(
 
     Args:
         config: The run's settings.
-        report_path: JSON report path.
+        report_path: JSON report path (None: the report is returned, not written).
         video: Video settings, or None for no video.
         plots_dir: Folder for the PNG plots, or None.
         out: Where the per-cycle lines go (stdout).
@@ -167,9 +170,15 @@ def run_job(
     )
     if runner.planner.user_ik is not None:
         report["summary"]["ik"] = runner.planner.user_ik.summary()
-    write_json_atomic(report_path, report)
+    if report_path is not None:
+        write_json_atomic(report_path, report)
     result = JobResult(
-        report, report_path, interrupted, video_error=video_error, sim_time=runner.cell.time
+        report,
+        report_path,
+        interrupted,
+        video_error=video_error,
+        sim_time=runner.cell.time,
+        results=list(runner.results),
     )
 
     if recorder is not None:

@@ -29,6 +29,7 @@ __all__ = [
     "build_report",
     "check_writable",
     "cycle_line",
+    "report_json",
     "strip_wall",
     "summarise",
     "summary_table",
@@ -148,11 +149,15 @@ def build_report(
     }
 
 
+def report_json(payload: dict[str, Any]) -> str:
+    """The text a report file holds: JSON with sorted keys, 2-space indent, a final newline."""
+    return json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
 def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
-    """Write ``payload`` as JSON to ``path`` atomically (sorted keys, 2-space indent; see
+    """Write ``payload`` as JSON (:func:`report_json`) to ``path`` atomically (see
     :mod:`kr210_sim.outputs` for links, devices and file modes)."""
-    text = json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
-    return write_text_atomic(path, text)
+    return write_text_atomic(path, report_json(payload))
 
 
 def strip_wall(obj: Any) -> Any:

@@ -101,6 +101,18 @@ def in_bin(position: npt.ArrayLike, bin_spec: BinSpec, margin: float = 0.0) -> b
     )
 
 
+def at_rest_in_bin(position: npt.ArrayLike, rested_for: float, bin_spec: BinSpec) -> bool:
+    """The target's part of a success: its centre inside the bin (:func:`in_bin`) and still
+    (:func:`is_still`) for :data:`REST_WINDOW` [s] in a row.
+
+    Args:
+        position: Target centre [m], shape (3,).
+        rested_for: How long it has been still [s].
+        bin_spec: The bin.
+    """
+    return in_bin(position, bin_spec) and rested_for >= REST_WINDOW - 1e-9
+
+
 def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
     """Score a cycle.
 
@@ -125,6 +137,6 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
         return Outcome.KNOCKED_OVER if obs.target_toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
-    if not in_bin(obs.target_position, bin_spec) or obs.rested_for < REST_WINDOW - 1e-9:
+    if not at_rest_in_bin(obs.target_position, obs.rested_for, bin_spec):
         return Outcome.MISSED_BIN
     return Outcome.SUCCESS

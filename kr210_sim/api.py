@@ -1,0 +1,400 @@
+"""The Python API: run, evaluate and grade an IK from a script, a notebook or a sweep.
+
+The command line is a thin layer over these functions (``python -m kr210_sim run`` calls
+:func:`run`), so a call returns exactly the figures the command prints and the JSON it writes::
+
+    import kr210_sim
+
+    report = kr210_sim.run(cycles=3, seed=1)
+    report.summary["success_rate"]           # 1.0
+    [c.reason for c in report.cycles]        # [None, None, None]
+    report.to_json()                          # the text `run --report` writes
+
+Errors are exceptions of :mod:`kr210_sim.errors` (a bad argument is a
+:class:`~kr210_sim.errors.ConfigError` with one sentence). Two outcomes keep the run's report
+on the exception, because the cycles that finished are worth having:
+
+* Ctrl-C or SIGTERM during the cycles raises :class:`RunInterrupted` (a
+  :class:`KeyboardInterrupt`) after the report of the finished cycles was written; its
+  ``report`` holds them.
+* A video that could not be made raises :class:`~kr210_sim.errors.VideoFailedError` after the
+  cycles ran and the report was written; its ``report`` holds the run.
+
+Per-cycle lines go to ``out`` when one is given (the CLI passes stdout), else to the logger
+``kr210_sim.api`` at INFO. The environment for learning is in :mod:`kr210_sim.envs`.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any, TextIO
+
+from kr210_sim.errors import ConfigError, VideoFailedError
+from kr210_sim.interrupts import Interrupted
+from kr210_sim.report import report_json
+
+if TYPE_CHECKING:
+    from kr210_sim.ik_plugin import UserIk
+    from kr210_sim.runner import CycleResult
+    from kr210_sim.video import VideoSettings
+
+__all__ = [
+    "EvalReport",
+    "IkCheckReport",
+    "Report",
+    "RunInterrupted",
+    "RunReport",
+    "as_user_ik",
+    "evaluate",
+    "ik_check",
+    "run",
+]
+
+log = logging.getLogger(__name__)
+
+
+def as_user_ik(ik: str | Callable[..., Any] | UserIk | None) -> UserIk | None:
+    """The :class:`~kr210_sim.ik_plugin.UserIk` for an ``ik=`` argument.
+
+    Args:
+        ik: ``"package.module:function"`` or ``"path/to/file.py:function"`` (loaded as
+            ``--ik`` loads it), a callable with the ``solve(T, q_ref)`` contract, a loaded
+            :class:`UserIk`, or None for our closed form.
+
+    Raises:
+        IkSpecError: When the SPEC names nothing loadable, or ``ik`` is neither a string nor a
+            callable.
+    """
+    from kr210_sim.ik_plugin import UserIk, ik_from_callable, load_ik
+
+    if ik is None or isinstance(ik, UserIk):
+        return ik
+    if isinstance(ik, str):
+        return load_ik(ik)
+    return ik_from_callable(ik)
+
+
+def _path(value: str | Path | None, name: str) -> Path | None:
+    if value is None:
+        return None
+    if not isinstance(value, (str, Path)):
+        raise ConfigError(f"{name} must be a path (str or Path), got a {type(value).__name__}")
+    return Path(value)
+
+
+def _whole(value: object, name: str, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(f"{name} must be a whole number >= {low}, got {value!r}")
+    return value
+
+
+# -- results ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Report:
+    """A report as the CLI writes it, read-only.
+
+    Attributes:
+        data: The JSON-ready report (use :meth:`to_dict` for a copy you may change).
+        path: Where it was written (None: not written).
+    """
+
+    data: Mapping[str, Any] = field(repr=False)
+    path: Path | None = None
+
+    @property
+    def summary(self) -> Mapping[str, Any]:
+        """The report's ``summary`` block (read-only view)."""
+        return MappingProxyType(self.data["summary"])
+
+    def to_dict(self) -> dict[str, Any]:
+        """A deep copy of the report: exactly the JSON the CLI writes, as Python objects."""
+        return copy.deepcopy(dict(self.data))
+
+    def to_json(self) -> str:
+        """The report as the text the CLI writes to its report file."""
+        return report_json(dict(self.data))
+
+
+@dataclass(frozen=True)
+class RunReport(Report):
+    """What :func:`run` did.
+
+    Attributes:
+        cycles: One typed record per cycle (``success``, ``reason``, ``detail``, ``cycle_time``,
+            ...; see :class:`~kr210_sim.runner.CycleResult`).
+        video_path: The MP4 written, or None.
+        video_frames: Frames in it.
+        video_error: Why the video could not be made (then :func:`run` raised), or None.
+        plot_paths: PNG plots written.
+    """
+
+    cycles: tuple[CycleResult, ...] = ()
+    video_path: Path | None = None
+    video_frames: int = 0
+    video_error: str | None = None
+    plot_paths: tuple[Path, ...] = ()
+
+    @property
+    def interrupted_by(self) -> str | None:
+        """The signal that stopped the run early (``"SIGINT"``, ``"SIGTERM"``, ...), or None."""
+        value = self.data["interrupted_by"]
+        return str(value) if value is not None else None
+
+    def passed(self, min_success: float = 0.8) -> bool:
+        """Whether the success rate reaches ``min_success`` (the CLI's pass bar)."""
+        return bool(self.summary["success_rate"] >= min_success)
+
+
+@dataclass(frozen=True)
+class EvalReport(Report):
+    """What :func:`evaluate` did; ``data["episodes"]`` holds one record per episode."""
+
+    @property
+    def episodes(self) -> tuple[Mapping[str, Any], ...]:
+        """One read-only record per episode (``seed``, ``success``, ``reason``, ...)."""
+        return tuple(MappingProxyType(e) for e in self.data["episodes"])
+
+
+@dataclass(frozen=True)
+class IkCheckReport(Report):
+    """What :func:`ik_check` did.
+
+    Attributes:
+        text: The table, worst cases and verdict the CLI prints.
+        plot_paths: PNG plots written.
+    """
+
+    text: str = ""
+    plot_paths: tuple[Path, ...] = ()
+
+    @property
+    def cases(self) -> tuple[Mapping[str, Any], ...]:
+        """One read-only record per case (``position_error_m``, ``passed``, ...)."""
+        return tuple(MappingProxyType(c) for c in self.data["cases"])
+
+    @property
+    def passed(self) -> bool:
+        """Every case passed."""
+        s = self.summary
+        return bool(s["passed"] == s["cases"])
+
+
+class RunInterrupted(Interrupted):
+    """Ctrl-C or a termination signal stopped a run or an evaluation; the report of what
+    finished was written (when a path was given) and is in :attr:`report`.
+
+    Args:
+        signum: The signal's number.
+        report: The report of the cycles or episodes that finished.
+    """
+
+    def __init__(self, signum: int, report: Report) -> None:
+        super().__init__(signum)
+        self.report = report
+
+
+class _LogLines:
+    """A text stream that sends each complete line to the logger at INFO."""
+
+    def __init__(self) -> None:
+        self._buffer = ""
+
+    def write(self, text: str) -> int:
+        self._buffer += text
+        *lines, self._buffer = self._buffer.split("\n")
+        for line in lines:
+            log.info("%s", line)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+# -- functions -------------------------------------------------------------------------------
+def run(
+    cycles: int = 10,
+    seed: int = 0,
+    slot: int = 0,
+    randomize: bool = False,
+    ik: str | Callable[..., Any] | UserIk | None = None,
+    video: str | Path | VideoSettings | None = None,
+    plots: str | Path | None = None,
+    scene: str | Path | None = None,
+    report: str | Path | None = None,
+    out: TextIO | None = None,
+    progress: TextIO | None = None,
+) -> RunReport:
+    """Run and score pick-and-place cycles (``python -m kr210_sim run``).
+
+    Args:
+        cycles: Cycles to run (1-10000).
+        seed: Seed of the run's generator (>= 0).
+        slot: Slot 1-9, or 0 for a random slot per cycle.
+        randomize: Randomise each cycle's target (pose, size, mass, friction).
+        ik: Plan with this IK instead of ours: a SPEC string (``"my_ik.py:solve"``), or a
+            callable ``solve(T, q_ref) -> q or None`` (see ``examples/ik_template.py``).
+        video: Film the run: an MP4 path (default camera and size), or a
+            :class:`~kr210_sim.video.VideoSettings` for cameras, size, fps and quality.
+        plots: Folder for the PNG plots, or None.
+        scene: Another MJCF cell, or None for the committed scene.
+        report: Write the JSON report here (atomically), or None to only return it.
+        out: Stream for the one-line-per-cycle output (None: logger ``kr210_sim.api``).
+        progress: Stream for the video's progress bar (None: stderr).
+
+    Returns:
+        The run's report; ``to_dict()`` is the JSON ``run --report`` writes.
+
+    Raises:
+        ConfigError: A bad argument or an output path that cannot be written (before any cycle
+            runs).
+        IkSpecError: ``ik`` names nothing loadable.
+        SceneError: The scene cannot be loaded.
+        VideoFailedError: The video could not be made (the cycles ran, the report was written;
+            it is the exception's ``report``).
+        RunInterrupted: Ctrl-C or SIGTERM stopped the cycles (the report of those finished
+            was written; it is the exception's ``report``).
+    """
+    from kr210_sim.job import run_job
+    from kr210_sim.runner import RunConfig
+    from kr210_sim.video import VideoSettings
+
+    _whole(seed, "seed", 0)
+    if not isinstance(randomize, bool):
+        raise ConfigError(f"randomize must be True or False, got {randomize!r}")
+    config = RunConfig(cycles=cycles, seed=seed, slot=slot, randomize=randomize)
+    user_ik = as_user_ik(ik)
+    settings: VideoSettings | None
+    if video is None or isinstance(video, VideoSettings):
+        settings = video
+    else:
+        settings = VideoSettings(path=_path(video, "video"))  # type: ignore[arg-type]
+    job = run_job(
+        config,
+        _path(report, "report"),
+        video=settings,
+        plots_dir=_path(plots, "plots"),
+        out=out if out is not None else _LogLines(),  # type: ignore[arg-type]
+        progress_stream=progress,
+        scene=_path(scene, "scene"),
+        ik=user_ik,
+    )
+    result = RunReport(
+        job.report,
+        job.report_path,
+        cycles=tuple(job.results),
+        video_path=settings.path if settings is not None and job.video_error is None else None,
+        video_frames=job.video_frames,
+        video_error=job.video_error,
+        plot_paths=tuple(job.plot_paths),
+    )
+    if job.interrupted is not None:
+        raise RunInterrupted(getattr(job.interrupted, "signum", 2), result) from job.interrupted
+    if job.video_error is not None:
+        raise VideoFailedError(job.video_error, result)
+    return result
+
+
+def evaluate(
+    episodes: int = 100,
+    seed: int = 0,
+    randomize: bool = False,
+    workers: int = 1,
+    scene: str | Path | None = None,
+    report: str | Path | None = None,
+    progress: TextIO | None = None,
+    **options: Any,
+) -> EvalReport:
+    """Monte-Carlo evaluation over seeded episodes (``python -m kr210_sim evaluate``).
+
+    A thin wrapper of :func:`kr210_sim.evaluate.evaluate`: ``options`` go to its
+    :class:`~kr210_sim.evaluate.EvalConfig` as they are.
+
+    Args:
+        episodes: Episodes (>= 1).
+        seed: Seed of the episode seeds.
+        randomize: Randomise each episode's target.
+        workers: Local worker processes (the results do not depend on it).
+        scene: Another MJCF cell, or None for the committed scene.
+        report: Write the JSON report here (atomically), or None to only return it.
+        progress: Stream for the progress line (None: stderr).
+        **options: Further :class:`EvalConfig` fields.
+
+    Returns:
+        The evaluation's report (``summary``: success rate, its 95 % interval, failures).
+
+    Raises:
+        ConfigError: A bad argument or an unwritable report path (before anything runs).
+        SceneError: The scene cannot be loaded.
+        RunInterrupted: Ctrl-C stopped it (the report of the episodes finished was written).
+    """
+    from kr210_sim import evaluate as evaluation
+    from kr210_sim.outputs import check_writable
+    from kr210_sim.report import write_json_atomic
+    from kr210_sim.scene import load_model
+
+    try:
+        config = evaluation.EvalConfig(
+            episodes=episodes,
+            seed=seed,
+            randomize=randomize,
+            workers=workers,
+            scene=_path(scene, "scene"),
+            **options,
+        )
+    except TypeError as exc:  # an option EvalConfig does not have
+        raise ConfigError(f"evaluate: {exc}") from None
+    report_path = _path(report, "report")
+    if report_path is not None:
+        check_writable(report_path)
+    load_model(config.scene)  # a bad scene fails here, before any worker starts
+    data, interrupted = evaluation.evaluate(config, progress)
+    if report_path is not None:
+        write_json_atomic(report_path, data)
+    result = EvalReport(data, report_path)
+    if interrupted:
+        raise RunInterrupted(2, result)
+    return result
+
+
+def ik_check(
+    ik: str | Callable[..., Any] | UserIk,
+    cases: int = 1000,
+    seed: int = 0,
+    report: str | Path | None = None,
+    plots: str | Path | None = None,
+    progress: TextIO | None = None,
+) -> IkCheckReport:
+    """Grade an IK function on the cell's poses, singular and limit poses and random ones
+    (``python -m kr210_sim ik-check``).
+
+    Args:
+        ik: A SPEC string or a callable ``solve(T, q_ref)`` (see :func:`as_user_ik`).
+        cases: Random poses on top of the fixed set (>= 0).
+        seed: Seed of the random poses (>= 0).
+        report: Write the JSON report here, or None to only return it.
+        plots: Folder for the PNG plots, or None.
+        progress: Stream for the progress line on long checks (None: stderr).
+
+    Returns:
+        The check's report (``passed``, ``summary``, one record per case).
+
+    Raises:
+        IkSpecError: ``ik`` names nothing loadable.
+        ConfigError: A bad argument or an unwritable output.
+    """
+    from kr210_sim.ikcheck import run_check
+
+    if ik is None:
+        raise ConfigError("ik_check needs an IK: a SPEC string or a callable solve(T, q_ref)")
+    user_ik = as_user_ik(ik)
+    assert user_ik is not None
+    _whole(cases, "cases", 0)
+    _whole(seed, "seed", 0)
+    report_path = _path(report, "report")
+    result = run_check(user_ik, cases, seed, report_path, _path(plots, "plots"), progress)
+    return IkCheckReport(result.report, report_path, result.text, result.plot_paths)

@@ -1,0 +1,190 @@
+"""The Gymnasium environment: spaces, checker, determinism, the runner's sampler and scoring,
+vectorised rewards, bad actions, async vector envs and rendering."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium")
+
+from gymnasium.utils.env_checker import check_env  # noqa: E402
+
+import kr210_sim.envs  # noqa: E402
+from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
+from kr210_sim.pick_place_env import POLICY_DT, SUBSTEPS, PickPlaceEnv  # noqa: E402
+from kr210_sim.runner import RunConfig, Runner, sample_target  # noqa: E402
+from kr210_sim.scoring import in_bin  # noqa: E402
+
+ENV_ID = kr210_sim.envs.ENV_ID
+
+
+@pytest.fixture(scope="module")
+def joint_env() -> PickPlaceEnv:
+    return PickPlaceEnv(control="joint")
+
+
+def test_registered_and_made_by_id() -> None:
+    assert ENV_ID == "kr210_sim/PickPlace-v0" and ENV_ID in gym.registry
+    env = gym.make(ENV_ID, control="cartesian", reward="dense")
+    assert isinstance(env.unwrapped, PickPlaceEnv)
+    assert env.action_space.shape == (5,) and env.unwrapped.reward_type == "dense"
+    assert gym.make(ENV_ID).action_space.shape == (7,)
+    assert POLICY_DT == 0.04 and SUBSTEPS * env.unwrapped.model.opt.timestep == POLICY_DT
+
+
+@pytest.mark.parametrize("control", ["joint", "cartesian"])
+def test_check_env_passes(control: str) -> None:
+    env = PickPlaceEnv(control=control, max_steps=20)
+    check_env(env, skip_render_check=True)  # reset and step determinism included
+
+
+def test_reset_spawns_what_run_spawns_for_the_seed(joint_env: PickPlaceEnv) -> None:
+    for seed, randomize in ((0, False), (7, True), (123, True)):
+        config = RunConfig(cycles=1, seed=seed, randomize=randomize)
+        runner = Runner(config)
+        expected = sample_target(runner.rng, config, runner.slot_for_cycle())
+        _, info = joint_env.reset(seed=seed, options={"randomize": randomize})
+        assert joint_env.target == expected and info["slot"] == expected.slot
+        p, _ = joint_env.cell.target_pose()
+        assert np.allclose(p[:2], expected.position[:2], atol=2e-3)  # settled on its board
+
+
+def test_observation_layout(joint_env: PickPlaceEnv) -> None:
+    obs, info = joint_env.reset(seed=1, options={"slot": 4})
+    assert info["slot"] == 4 and info["is_success"] is False
+    o = obs["observation"]
+    assert o.shape == (20,) and joint_env.observation_space.contains(obs)
+    assert np.allclose(o[:6], joint_env.ready_q, atol=1e-3) and np.abs(o[6:12]).max() < 0.05
+    assert 0.1 < o[12] < 0.3  # the open finger gap [m]
+    assert np.allclose(o[13:16], joint_env.cell.gripper_pose()[:3, 3])
+    assert np.isclose(np.linalg.norm(o[16:20]), 1.0)
+    slot4 = joint_env.run_config.cell.slot(4)
+    assert np.allclose(obs["achieved_goal"][:2], slot4[:2], atol=2e-3)
+    assert in_bin(obs["desired_goal"], joint_env.bin)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"control": "torque"}, "control must be 'joint' or 'cartesian', got 'torque'"),
+        ({"reward": "shaped"}, "reward must be 'sparse' or 'dense', got 'shaped'"),
+        ({"slot": 10}, "slot must be 0 (random) or 1-9, got 10"),
+        ({"max_steps": 0}, "max_steps must be a whole number >= 1, got 0"),
+        ({"render_mode": "human"}, "render_mode must be None or 'rgb_array', got 'human'"),
+        ({"render_mode": "rgb_array", "camera": "top"}, "no camera 'top'; cameras: overview"),
+    ],
+)
+def test_bad_arguments(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ConfigError) as exc:
+        PickPlaceEnv(**kwargs)
+    assert message in str(exc.value)
+
+
+def test_bad_reset_options(joint_env: PickPlaceEnv) -> None:
+    with pytest.raises(ConfigError, match="slot must be 0 \\(random\\) or 1-9, got 12"):
+        joint_env.reset(options={"slot": 12})
+    with pytest.raises(ConfigError, match="unknown reset option"):
+        joint_env.reset(options={"colour": "red"})
+
+
+@pytest.mark.parametrize(
+    ("action", "message"),
+    [
+        ([np.nan, 0, 0, 0, 0, 0, 0], "action entry 0 is nan: every entry must be a finite number"),
+        ([0, 0, 0, np.inf, 0, 0, 0], "action entry 3 is inf"),
+        ([0, 0, 0, 0, 0, 1.5, 0], "action entry 5 is 1.5, outside the action space [-1, 1]"),
+        ([0, 0, 0], "action must have shape (7,) for control='joint', got (3,)"),
+        ("left", "action must be 7 numbers in [-1, 1], got str"),
+    ],
+)
+def test_bad_actions_never_reach_mujoco(joint_env: PickPlaceEnv, action: Any, message: str) -> None:
+    joint_env.reset(seed=2)
+    d = joint_env.cell.data
+    before = (d.time, d.qpos.copy(), d.qvel.copy(), d.ctrl.copy(), joint_env.q_cmd.copy())
+    with pytest.raises(ActionError) as exc:
+        joint_env.step(np.asarray(action) if not isinstance(action, str) else action)
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+    assert d.time == before[0]
+    for now, then in zip((d.qpos, d.qvel, d.ctrl, joint_env.q_cmd), before[1:], strict=True):
+        assert np.array_equal(now, then)
+    joint_env.step(np.zeros(7))  # the episode goes on
+    assert np.isclose(d.time, before[0] + POLICY_DT)
+
+
+def test_compute_reward_is_vectorised_and_matches_success() -> None:
+    env = PickPlaceEnv(control="joint")
+    env.reset(seed=0)
+    goal = env.goal
+    offsets = np.array([[0, 0, 0], [0, 0, 0.47], [0.45, 0, 0], [0, 0, -0.48]])
+    ag = goal + offsets
+    info = {"rested_for": np.array([0.3, 0.3, 0.3, 0.3]), "released": np.ones(4, bool)}
+    r = env.compute_reward(ag, np.broadcast_to(goal, ag.shape), info)
+    assert r.tolist() == [
+        0.0,
+        0.0,
+        -1.0,
+        -1.0,
+    ]  # centre; under the rim; past a wall; under the floor
+    infos = [{"rested_for": t, "released": True} for t in (0.3, 0.1, 0.3, 0.3)]
+    assert env.compute_reward(ag, goal, infos).tolist() == [0.0, -1.0, -1.0, -1.0]
+    single = env.compute_reward(goal, goal, {"rested_for": 0.25, "released": False})
+    assert single == -1.0 and isinstance(single, float)
+    with pytest.raises(ConfigError, match="compute_reward needs the info"):
+        env.compute_reward(goal, goal, {})
+    dense = PickPlaceEnv(reward="dense")
+    obs, info = dense.reset(seed=0)
+    expected = -(np.linalg.norm(obs["achieved_goal"] - goal) + 0.5 * info["gripper_to_target"])
+    _, reward, *_ = dense.step(np.zeros(7))
+    assert reward < 0 and np.isclose(reward, expected, atol=0.02)
+
+
+def test_truncation_at_the_step_limit() -> None:
+    env = PickPlaceEnv(max_steps=3)
+    env.reset(seed=0)
+    flags = [env.step(np.zeros(7))[2:4] for _ in range(3)]
+    assert flags == [(False, False), (False, False), (False, True)]
+
+
+def test_joint_actions_move_the_servo_targets_within_limits() -> None:
+    env = PickPlaceEnv()
+    env.reset(seed=0)
+    q0 = env.q_cmd.copy()
+    env.step(np.array([1, -1, 0, 0, 0, 0.5, 1.0]))
+    dq = env.q_cmd - q0
+    assert np.allclose(dq, env.qd_max * POLICY_DT * np.array([1, -1, 0, 0, 0, 0.5]))
+    for _ in range(200):  # joint 1 pushed past its limit stays at it
+        env.step(np.array([1, 0, 0, 0, 0, 0, 1.0]))
+    assert env.q_cmd[0] == env.q_upper[0]
+
+
+def test_async_vector_env_matches_single_envs() -> None:
+    vec = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="async")
+    try:
+        obs, _ = vec.reset(seed=[3, 4])
+        rng = np.random.default_rng(0)
+        actions = rng.uniform(-1, 1, size=(5, 2, 7)).astype(np.float32)
+        for a in actions:
+            obs, reward, *_ = vec.step(a)
+    finally:
+        vec.close()
+    for i, seed in enumerate((3, 4)):
+        env = gym.make(ENV_ID)
+        o, _ = env.reset(seed=seed)
+        for a in actions[:, i]:
+            o, r, *_ = env.step(a)
+        assert np.array_equal(o["observation"], obs["observation"][i])
+        assert r == reward[i] == -1.0
+
+
+@pytest.mark.render
+def test_rgb_array_rendering() -> None:
+    env = PickPlaceEnv(render_mode="rgb_array", camera="shelf", width=160, height=128)
+    env.reset(seed=0)
+    frame = env.render()
+    env.close()
+    assert frame is not None and frame.shape == (128, 160, 3) and frame.dtype == np.uint8
+    assert frame.std() > 10  # a picture, not a blank
+    assert PickPlaceEnv().render() is None
