@@ -1,36 +1,64 @@
-"""Monte-Carlo evaluation: many independent seeded pick-and-place episodes across processes.
+"""Monte-Carlo evaluation: many independent seeded pick-and-place episodes, locally or on Ray.
 
-Each episode is a pure function of ``(episode seed, randomize, scene)``: a fresh cell (a copy of
-the pristine model, the arm at the ready pose, empty bin), one cycle from
-``RunConfig(cycles=1, seed=episode_seed, randomize=...)``. Episode ``i``'s seed is drawn from
-``numpy.random.SeedSequence([seed, i])``, so results do not depend on how episodes are spread
-over workers (or, later, over a cluster), and any episode is replayed exactly by
-``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize]``.
+Each episode is a pure function of its seed (see :mod:`kr210_sim.episode`), so the report does
+not depend on the backend, the worker count, the order episodes finish in, or on whether the
+evaluation was interrupted and resumed: only the fields under ``execution`` (backend, workers,
+nodes, wall time) do. Records stream to the episodes file beside the report as they finish
+(:mod:`kr210_sim.eval_stream`), the summary is accumulated in bounded memory
+(:mod:`kr210_sim.eval_summary`), and the report keeps the summary plus the failed episodes'
+records.
+
+SIGINT and SIGTERM on the driver stop the evaluation: the workers are stopped, the report of the
+episodes finished so far is written, and the outcome names the signal (exit 130 or 143).
 """
 
 from __future__ import annotations
 
-import copy
-import math
-import multiprocessing as mp
+import logging
+import os
 import signal
 import sys
+import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import FrameType
 from typing import Any, TextIO
 
-import numpy as np
-
+from kr210_sim.episode import episode_seed, run_episode
 from kr210_sim.errors import ConfigError
+from kr210_sim.eval_local import EpisodeError, LocalBackend
+from kr210_sim.eval_ray import RayBackend
+from kr210_sim.eval_stream import EpisodeWriter, episodes_path, read_records
+from kr210_sim.eval_summary import EpisodeSummary, wilson_interval
 from kr210_sim.progress import ProgressLine, bar
-from kr210_sim.runner import CycleResult, RunConfig, Runner
 
-import mujoco  # isort: skip
+__all__ = [
+    "BACKENDS",
+    "EpisodeError",
+    "EvalConfig",
+    "EvalOutcome",
+    "Terminated",
+    "episode_seed",
+    "evaluate",
+    "run_episode",
+    "wilson_interval",
+]
 
-#: Example seeds kept per failure reason.
-EXAMPLES_PER_REASON = 5
+log = logging.getLogger(__name__)
+
+BACKENDS = ("local", "ray")
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM arrived: unwinds exactly like Ctrl-C.
+
+    A KeyboardInterrupt on purpose: libraries that wait in native code (Ray's ``wait``) turn a
+    pending KeyboardInterrupt into their own, and anything else into a SystemError. Which
+    signal it was is recorded by the handler, not read from the exception's class.
+    """
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,228 +69,280 @@ class EvalConfig:
         episodes: Number of episodes.
         seed: Seed from which the episode seeds are derived.
         randomize: Randomise each episode's target.
-        workers: Local worker processes (does not change the results).
+        workers: Worker processes (local; None: 1) or tasks in flight (ray; None: the cluster's
+            CPUs). Capped at the episodes to run; never changes the results.
         scene: MJCF scene path, or None for the committed scene.
+        backend: ``local`` (processes on this machine) or ``ray``.
+        address: Ray cluster address (``auto`` or ``host:port``); None starts Ray here.
     """
 
     episodes: int = 100
     seed: int = 0
     randomize: bool = False
-    workers: int = 1
+    workers: int | None = None
     scene: Path | None = None
+    backend: str = "local"
+    address: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.episodes, int) or self.episodes < 1:
             raise ConfigError(f"episodes must be a whole number >= 1, got {self.episodes!r}")
-        if not isinstance(self.workers, int) or self.workers < 1:
+        if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
             raise ConfigError(f"workers must be a whole number >= 1, got {self.workers!r}")
         if self.seed < 0:
             raise ConfigError(f"seed must be >= 0, got {self.seed!r}")
+        if self.backend not in BACKENDS:
+            raise ConfigError(f"backend must be one of {', '.join(BACKENDS)}, got {self.backend!r}")
+        if self.address is not None and self.backend != "ray":
+            raise ConfigError("--address needs --backend ray")
 
 
-def episode_seed(seed: int, index: int) -> int:
-    """The seed of episode ``index`` (0-based) of an evaluation seeded with ``seed``."""
-    return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint32)[0])
+@dataclass(frozen=True, slots=True)
+class EvalOutcome:
+    """What an evaluation produced.
 
-
-# -- one episode ----------------------------------------------------------------------------
-_PRISTINE: mujoco.MjModel | None = None
-
-
-def _init_worker(scene: Path | None, in_child: bool = False) -> None:
-    """Load the scene once per process; every episode gets its own copy of it.
-
-    Worker processes ignore Ctrl-C: the parent handles it (stops the pool, writes the report).
+    Attributes:
+        report: The JSON-ready report.
+        signal: The signal that cut the evaluation short (SIGINT or SIGTERM), or None.
+        report_path: Where the report was written, or None.
+        episodes_path: Where the records were streamed, or None.
     """
-    global _PRISTINE
-    from kr210_sim.scene import load_model
 
-    if in_child:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _PRISTINE = load_model(scene)
+    report: dict[str, Any]
+    signal: int | None = None
+    report_path: Path | None = None
+    episodes_path: Path | None = None
 
-
-def run_episode(seed: int, randomize: bool) -> CycleResult:
-    """One episode on a fresh copy of the worker's model (see the module docstring)."""
-    assert _PRISTINE is not None, "call _init_worker first"
-    config = RunConfig(cycles=1, seed=seed, randomize=randomize)
-    runner = Runner(config, model=copy.copy(_PRISTINE))
-    return runner.run_cycle(1, runner.slot_for_cycle())
+    @property
+    def interrupted(self) -> bool:
+        """Whether a signal cut the evaluation short."""
+        return self.signal is not None
 
 
-def _episode_task(job: tuple[int, int, bool]) -> tuple[int, dict[str, Any]]:
-    index, seed, randomize = job
-    return index, episode_record(index, seed, run_episode(seed, randomize))
+# -- signals -----------------------------------------------------------------------------------
+class _Signals:
+    """The driver's signals during an evaluation (main thread only).
+
+    While armed, SIGTERM raises :class:`Terminated` and is remembered; once the evaluation winds
+    down (stopping the workers, writing the report), SIGINT and SIGTERM are ignored.
+    """
+
+    def __init__(self) -> None:
+        self.active = threading.current_thread() is threading.main_thread()
+        self.terminated = False
+        self._saved: dict[int, Any] = {}
+
+    def _on_sigterm(self, signum: int, frame: FrameType | None) -> None:
+        self.terminated = True
+        raise Terminated
+
+    def arm(self) -> None:
+        """(Re)install the SIGTERM handler (Ray's ``init`` installs its own)."""
+        if self.active:
+            self._save_and_set(signal.SIGTERM, self._on_sigterm)
+
+    def ignore(self) -> None:
+        """Ignore SIGINT and SIGTERM from now on (until :meth:`restore`)."""
+        if self.active:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._save_and_set(sig, signal.SIG_IGN)
+
+    def _save_and_set(self, sig: int, handler: Any) -> None:
+        previous = signal.signal(sig, handler)
+        self._saved.setdefault(sig, previous)
+
+    def restore(self) -> None:
+        """Put back the handlers found on arming."""
+        for sig, handler in self._saved.items():
+            signal.signal(sig, handler)
+        self._saved.clear()
 
 
-def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
-    """The report's record of one episode."""
-    s = r.target.spec
-    return {
-        "episode": index,
-        "seed": seed,
-        "slot": r.slot,
-        "success": r.success,
-        "reason": r.reason,
-        "detail": r.detail,
-        "cycle_time": r.cycle_time,
-        "creep_mm": r.creep_mm,
-        "max_tracking_error_deg": max(r.max_tracking_error_deg),
-        "max_gripper_error_mm": r.max_gripper_error_mm,
-        "grasp_attempts": r.grasp_attempts,
-        "target": {
-            "position": [round(x, 6) for x in r.target.position],
-            "yaw": round(r.target.yaw, 6),
-            "radius": round(s.radius, 6),
-            "length": round(s.length, 6),
-            "mass": round(s.mass, 6),
-            "friction": round(s.friction, 6),
-        },
-        "wall_time": r.wall_time,
-    }
+@contextmanager
+def _signals() -> Iterator[_Signals]:
+    guard = _Signals()
+    guard.arm()
+    try:
+        yield guard
+    finally:
+        guard.restore()
 
 
-# -- many episodes ---------------------------------------------------------------------------
-def _episodes(config: EvalConfig) -> Iterator[tuple[int, dict[str, Any]]]:
-    """Run the episodes, yielding ``(index, record)`` as they finish (any order)."""
-    jobs = [(i, episode_seed(config.seed, i), config.randomize) for i in range(config.episodes)]
-    if config.workers == 1:
-        _init_worker(config.scene)
-        for job in jobs:
-            yield _episode_task(job)
-        return
-    # spawn: no state (threads, GL contexts) is inherited from this process.
-    ctx = mp.get_context("spawn")
-    chunk = max(1, min(8, config.episodes // (8 * config.workers)))
-    with ctx.Pool(config.workers, initializer=_init_worker, initargs=(config.scene, True)) as pool:
-        try:
-            yield from pool.imap_unordered(_episode_task, jobs, chunksize=chunk)
-        except BaseException:
-            pool.terminate()
-            raise
-
-
-def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (95 % for the default ``z``)."""
-    if n == 0:
-        return 0.0, 1.0
-    p = successes / n
-    denom = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
-def summarise_episodes(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Success rate with its 95 % Wilson interval, failures with examples, cycle-time stats."""
-    n = len(records)
-    ok = sum(r["success"] for r in records)
-    lo, hi = wilson_interval(ok, n)
-    failures: dict[str, dict[str, Any]] = {}
-    for r in records:
-        if r["success"]:
-            continue
-        f = failures.setdefault(r["reason"], {"count": 0, "examples": []})
-        f["count"] += 1
-        if len(f["examples"]) < EXAMPLES_PER_REASON:
-            f["examples"].append({"seed": r["seed"], "slot": r["slot"], "detail": r["detail"]})
-    times = np.array([r["cycle_time"] for r in records if r["success"]])
-    creep = [r["creep_mm"] for r in records if r["reason"] not in ("unreachable", "grasp_missed")]
-
-    def stat(fn: Callable[[np.ndarray], Any]) -> float:
-        return round(float(fn(times)), 6) if len(times) else 0.0
-
-    return {
-        "episodes": n,
-        "successes": ok,
-        "success_rate": ok / n if n else 0.0,
-        "success_rate_ci95": [round(lo, 6), round(hi, 6)],
-        "failures": dict(sorted(failures.items())),
-        "grasp_retries": sum(r["grasp_attempts"] - 1 for r in records),
-        "retries_recovered": sum(r["grasp_attempts"] > 1 and r["success"] for r in records),
-        "cycle_time": {
-            "mean": stat(np.mean),
-            "std": stat(np.std),
-            "p50": stat(np.median),
-            "p95": stat(lambda t: np.percentile(t, 95)),
-            "max": stat(np.max),
-        },
-        "max_creep_mm": max(creep, default=0.0),
-        "max_tracking_error_deg": max((r["max_tracking_error_deg"] for r in records), default=0.0),
-    }
-
-
+# -- the evaluation ----------------------------------------------------------------------------
 class _Bar:
     """The evaluation's progress line: episodes done, failures, elapsed and estimated time."""
 
-    def __init__(self, total: int, stream: TextIO) -> None:
+    def __init__(self, total: int, already: int, stream: TextIO) -> None:
         self.total = total
+        self.already = already  # resumed: not part of this run's rate
         self.line = ProgressLine(stream, log_interval=10.0)
         self.line.last = self.line.start  # the first line after an interval, not at once
+        self.shown = False
 
     def update(self, done: int, failed: int) -> None:
         if done < self.total and not self.line.due():
             return
         elapsed = self.line.elapsed
-        eta = elapsed * (self.total - done) / done if done else 0.0
+        ran = done - self.already
+        eta = elapsed * (self.total - done) / ran if ran else 0.0
         self.line.show(
             f"evaluate {bar(done / self.total)} {done}/{self.total} episodes  "
             f"{failed} failed  elapsed {elapsed:4.0f} s  eta {eta:4.0f} s"
         )
+        self.shown = True
         if done == self.total:
+            self.close()
+
+    def close(self) -> None:
+        """End the line (on a terminal the next output starts on a new line)."""
+        if self.shown:
             self.line.end()
+            self.shown = False
 
 
-def evaluate(config: EvalConfig, progress: TextIO | None = None) -> tuple[dict[str, Any], bool]:
+def _identity(config: EvalConfig) -> dict[str, Any]:
+    """What the episode records depend on (the episodes file's header)."""
+    from kr210_sim.report import versions
+
+    return {
+        "seed": config.seed,
+        "randomize": config.randomize,
+        "scene": str(config.scene) if config.scene else None,
+        "versions": versions(),
+    }
+
+
+def _local_workers(config: EvalConfig, todo: int) -> int:
+    """Local worker processes: as asked, capped at the episodes to run; warn above the cores."""
+    asked = config.workers or 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores and asked > cores:
+        log.warning("--workers %d is more than the %d cores of this machine", asked, cores)
+    return max(1, min(asked, todo))
+
+
+def evaluate(
+    config: EvalConfig,
+    report: Path | None = None,
+    resume: bool = False,
+    progress: TextIO | None = None,
+) -> EvalOutcome:
     """Run an evaluation and build its report.
 
     Args:
         config: The evaluation's settings.
-        progress: Stream for the progress bar (None: stderr).
+        report: Where to write the report (atomically); the records stream to the episodes
+            file beside it. None: keep everything in memory, write nothing.
+        resume: Continue from the episodes file beside ``report``, skipping the episodes in it.
+        progress: Stream for the progress line (None: stderr).
 
     Returns:
-        The JSON-ready report and whether Ctrl-C cut the evaluation short (the report then holds
-        the episodes finished so far).
-    """
-    from kr210_sim.report import versions
+        The outcome: the report (of the episodes finished so far when a signal cut it short)
+        and the signal, if any.
 
-    bar = _Bar(config.episodes, progress or sys.stderr)
-    records: list[dict[str, Any]] = []
-    failed = 0
+    Raises:
+        ConfigError: Bad settings, an episodes file of another evaluation, Ray missing.
+        EpisodeError: An episode raised (a bug) or a worker died.
+    """
+    from kr210_sim.report import check_writable
+
+    n = config.episodes
+    identity = _identity(config)
+    summary = EpisodeSummary()
+    done = bytearray(n)  # 1 where the episode's record is counted: results are keyed by episode
+    log_path = episodes_path(check_writable(report)) if report is not None else None
+    resuming = resume and log_path is not None and log_path.is_file()
+    if resuming:
+        assert log_path is not None
+        _read_back(log_path, identity, summary, done)
+    resumed = summary.episodes
+    todo = n - resumed
+    jobs = ((i, episode_seed(config.seed, i)) for i in range(n) if not done[i])
+    backend: LocalBackend | RayBackend
+    if config.backend == "ray":
+        backend = RayBackend(config.workers, config.randomize, config.scene, config.address, todo)
+    else:
+        backend = LocalBackend(_local_workers(config, todo), config.randomize, config.scene)
+
+    caught: int | None = None
     wall0 = time.perf_counter()
-    interrupted = False
-    try:
-        for _, record in _episodes(config):
-            records.append(record)
-            failed += not record["success"]
-            bar.update(len(records), failed)
-    except KeyboardInterrupt:
-        interrupted = True
-    wall = time.perf_counter() - wall0
-    records.sort(key=lambda r: r["episode"])
-    report = {
+    progress_bar = _Bar(n, resumed, progress or sys.stderr)
+    writer: EpisodeWriter | None = None
+    with _signals() as guard:
+        try:
+            if todo:
+                backend.start()
+                guard.arm()  # again: Ray's init installs its own SIGTERM handler
+                if log_path is not None:
+                    writer = EpisodeWriter(log_path, identity, append=resuming)
+                for records in backend.results(jobs):
+                    fresh = [r for r in records if not done[r["episode"]]]  # never twice
+                    if writer is not None:
+                        writer.write(fresh)
+                    for r in fresh:
+                        done[r["episode"]] = 1
+                        summary.add(r)
+                    progress_bar.update(summary.episodes, summary.failed)
+        except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (Terminated, or re-raised by Ray)
+            caught = signal.SIGTERM if guard.terminated else signal.SIGINT
+        finally:
+            guard.ignore()  # winding down: stopping the workers, writing the report
+            progress_bar.close()
+            backend.close()
+            if writer is not None:
+                writer.close()
+        wall = time.perf_counter() - wall0
+        execution = {**backend.execution(), "wall_time_s": wall, "resumed_episodes": resumed}
+        payload = _report(config, summary, caught is not None, execution, identity, log_path)
+        if report is not None:
+            from kr210_sim.report import write_json_atomic
+
+            write_json_atomic(report, payload)
+    return EvalOutcome(payload, caught, report, log_path)
+
+
+def _read_back(
+    path: Path, identity: dict[str, Any], summary: EpisodeSummary, done: bytearray
+) -> None:
+    """Count the records of an episodes file into ``summary`` and ``done`` (resume)."""
+    for record in read_records(path, identity):
+        i = record["episode"]
+        if i < len(done) and not done[i]:  # a longer earlier evaluation: ignore the rest
+            done[i] = 1
+            summary.add(record)
+    log.info("resuming: %d of %d episodes already done", summary.episodes, len(done))
+
+
+def _report(
+    config: EvalConfig,
+    summary: EpisodeSummary,
+    interrupted: bool,
+    execution: dict[str, Any],
+    identity: dict[str, Any],
+    log_path: Path | None,
+) -> dict[str, Any]:
+    """The JSON-ready report: config, summary, failed episodes' records, execution, versions."""
+    return {
         "kind": "kr210_sim.evaluate",
         "config": {
             "episodes": config.episodes,
             "seed": config.seed,
             "randomize": config.randomize,
-            "scene": str(config.scene) if config.scene else None,
+            "scene": identity["scene"],
             "randomization": _randomization(),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
             + (" --randomize" if config.randomize else ""),
         },
-        "summary": summarise_episodes(records),
-        "episodes": records,
+        "summary": summary.summary(),
+        "failed_episodes": summary.failed_records(),
+        "episodes_file": log_path.name if log_path is not None else None,
         "interrupted": interrupted,
-        "execution": {"workers": config.workers, "wall_time_s": wall},
-        "versions": versions(),
+        "execution": execution,
+        "versions": identity["versions"],
     }
-    return report, interrupted
 
 
 def _randomization() -> dict[str, Any]:
-    from dataclasses import asdict
-
     from kr210_sim.config import RandomizationSpec
 
     return {
