@@ -2,21 +2,23 @@
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
-STAMP := $(VENV)/.installed
+# Extras to install: `make test EXTRAS=test,ray` adds Ray (CI does) so the cluster tests run.
+EXTRAS ?= test
+STAMP := $(VENV)/.installed-$(EXTRAS)
 
 .PHONY: run test lint bench scene video evaluate clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $(STAMP)
 
 run: $(STAMP)
 	$(PY) -m kr210_sim run --cycles 10 $(ARGS)
 
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2
+	$(PY) -m pytest -q -n 2 --dist loadgroup
 
 lint: $(STAMP)
 	$(PY) -m ruff check kr210_sim tests benchmarks

@@ -35,6 +35,13 @@ class EpisodeError(Kr210SimError):
     """An episode raised an exception (a bug: episodes report failures, they do not raise)."""
 
 
+def _died(index: int) -> EpisodeError:
+    return EpisodeError(
+        f"a worker process died running episode {index}; "
+        "the finished episodes are kept: continue with --resume"
+    )
+
+
 def _die_with_parent(parent: int) -> None:
     """Ask Linux to SIGKILL this process when its parent dies (no-op elsewhere)."""
     if not sys.platform.startswith("linux"):
@@ -170,8 +177,11 @@ class LocalBackend:
                 job = next(todo, None)
                 if job is None:
                     return
-                conn.send(job)
                 queued[conn].append(job[0])
+                try:
+                    conn.send(job)
+                except OSError:
+                    raise _died(queued[conn][0]) from None
 
         for conn in self._conns:
             feed(conn)
@@ -181,19 +191,13 @@ class LocalBackend:
                 if isinstance(ready, int):  # a worker's sentinel: it exited
                     conn = conn_of.pop(ready)
                     if queued[conn] and not conn.poll():
-                        raise EpisodeError(
-                            f"a worker process died running episode {queued[conn][0]}; "
-                            "the finished episodes are kept: continue with --resume"
-                        )
+                        raise _died(queued[conn][0])
                     continue
                 assert isinstance(ready, Connection)
                 try:
                     status, index, payload = ready.recv()
                 except EOFError:
-                    raise EpisodeError(
-                        f"a worker process died running episode {queued[ready][0]}; "
-                        "the finished episodes are kept: continue with --resume"
-                    ) from None
+                    raise _died(queued[ready][0]) from None
                 queued[ready].remove(index)
                 if status != "ok":
                     raise EpisodeError(f"episode {index} raised {payload}")

@@ -74,6 +74,7 @@ def local_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
+@pytest.mark.xdist_group("ray-cluster")  # one cluster for both tests (make test: loadgroup)
 def test_the_cluster_gives_the_local_report_byte_for_byte(
     cluster: Any, local_report: Path, tmp_path: Path
 ) -> None:
@@ -85,6 +86,7 @@ def test_the_cluster_gives_the_local_report_byte_for_byte(
     assert json.loads(local_report.read_text())["execution"]["backend"] == "local"
 
 
+@pytest.mark.xdist_group("ray-cluster")
 def test_a_worker_killed_mid_run_loses_and_double_counts_nothing(
     cluster: Any, local_report: Path, tmp_path: Path
 ) -> None:
