@@ -196,7 +196,7 @@ class LocalBackend:
                 assert isinstance(ready, Connection)
                 try:
                     status, index, payload = ready.recv()
-                except EOFError:
+                except (EOFError, OSError):  # closed, or reset with data unread
                     raise _died(queued[ready][0]) from None
                 queued[ready].remove(index)
                 if status != "ok":

@@ -46,7 +46,7 @@ class RayBackend:
     """Runs episodes as Ray tasks.
 
     Use as a context manager: entering connects to the cluster (or starts Ray here), leaving
-    cancels the tasks still running and disconnects (stopping the Ray started here).
+    disconnects, which ends this job's tasks on the cluster (or stops the Ray started here).
 
     Args:
         workers: Tasks in flight at a time (None: the cluster's CPUs); when Ray is started
@@ -140,17 +140,16 @@ class RayBackend:
         self.close()
 
     def close(self) -> None:
-        """Cancel (kill) the tasks still running and disconnect; stop a Ray started here."""
+        """Disconnect: stop a Ray started here, or end this job on the cluster.
+
+        No ``ray.cancel``: when this driver disconnects, the cluster ends its job and kills the
+        job's workers, tasks running or not (and Ray 2.60's driver can abort when a forced
+        cancel races a task's reply).
+        """
         ray, self._ray = self._ray, None
-        if ray is None:
-            return
-        for ref in self._pending:
-            try:
-                ray.cancel(ref, force=True)
-            except Exception as exc:  # already finished or lost: nothing left to stop
-                log.debug("cancel: %s", exc)
         self._pending.clear()
-        ray.shutdown()
+        if ray is not None:
+            ray.shutdown()
 
     def results(self, jobs: Iterable[tuple[int, int]]) -> Iterator[list[dict[str, Any]]]:
         """Run ``jobs`` (``(index, seed)`` pairs) in chunks, yielding each chunk's records.

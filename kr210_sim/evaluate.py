@@ -123,23 +123,43 @@ class EvalOutcome:
 class _Signals:
     """The driver's signals during an evaluation (main thread only).
 
-    While armed, SIGTERM raises :class:`Terminated` and is remembered; once the evaluation winds
-    down (stopping the workers, writing the report), SIGINT and SIGTERM are ignored.
+    While armed, SIGINT raises KeyboardInterrupt and SIGTERM :class:`Terminated` (and is
+    remembered), except inside :meth:`held` blocks, which they interrupt only at their end;
+    once the evaluation winds down (stopping the workers, writing the report), both are ignored.
     """
 
     def __init__(self) -> None:
         self.active = threading.current_thread() is threading.main_thread()
         self.terminated = False
+        self._held = False
+        self._pending: int | None = None
         self._saved: dict[int, Any] = {}
 
-    def _on_sigterm(self, signum: int, frame: FrameType | None) -> None:
-        self.terminated = True
-        raise Terminated
+    def _on_signal(self, signum: int, frame: FrameType | None) -> None:
+        if signum == signal.SIGTERM:
+            self.terminated = True
+        if self._held:
+            self._pending = signum
+            return
+        _raise_for(signum)
 
     def arm(self) -> None:
-        """(Re)install the SIGTERM handler (Ray's ``init`` installs its own)."""
+        """(Re)install the handlers (Ray's ``init`` installs its own for SIGTERM)."""
         if self.active:
-            self._save_and_set(signal.SIGTERM, self._on_sigterm)
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._save_and_set(sig, self._on_signal)
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """A block that a signal does not cut in two (records are written and counted, or not)."""
+        self._held = True
+        try:
+            yield
+        finally:
+            self._held = False
+        if self._pending is not None:
+            signum, self._pending = self._pending, None
+            _raise_for(signum)
 
     def ignore(self) -> None:
         """Ignore SIGINT and SIGTERM from now on (until :meth:`restore`)."""
@@ -156,6 +176,10 @@ class _Signals:
         for sig, handler in self._saved.items():
             signal.signal(sig, handler)
         self._saved.clear()
+
+
+def _raise_for(signum: int) -> None:
+    raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
 
 @contextmanager
@@ -272,17 +296,18 @@ def evaluate(
         try:
             if todo:
                 backend.start()
-                guard.arm()  # again: Ray's init installs its own SIGTERM handler
+                guard.arm()  # again: Ray's init replaces the SIGTERM handler
                 if log_path is not None:
                     writer = EpisodeWriter(log_path, identity, append=resuming)
                 for records in backend.results(jobs):
-                    fresh = [r for r in records if not done[r["episode"]]]  # never twice
-                    if writer is not None:
-                        writer.write(fresh)
-                    for r in fresh:
-                        done[r["episode"]] = 1
-                        summary.add(r)
-                    progress_bar.update(summary.episodes, summary.failed)
+                    with guard.held():  # the episodes file and the summary stay in step
+                        fresh = [r for r in records if not done[r["episode"]]]  # never twice
+                        if writer is not None:
+                            writer.write(fresh)
+                        for r in fresh:
+                            done[r["episode"]] = 1
+                            summary.add(r)
+                        progress_bar.update(summary.episodes, summary.failed)
         except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (Terminated, or re-raised by Ray)
             caught = signal.SIGTERM if guard.terminated else signal.SIGINT
         finally:

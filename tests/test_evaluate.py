@@ -6,7 +6,9 @@ from __future__ import annotations
 import json
 import logging
 import os
+import signal
 import sys
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -183,3 +185,23 @@ def test_address_needs_the_ray_backend(tmp_path: Path, capsys: pytest.CaptureFix
     argv = ["evaluate", "--address", "auto", "--report", str(tmp_path / "e.json")]
     assert main(argv) == 2
     assert "--address needs --backend ray" in capsys.readouterr().err
+
+
+def test_a_signal_waits_for_the_end_of_a_held_block() -> None:
+    """SIGTERM while a record is being written and counted: both happen, then it stops."""
+    from kr210_sim.evaluate import Terminated, _signals
+
+    before = signal.getsignal(signal.SIGTERM)
+    steps: list[str] = []
+    with _signals() as guard:
+        with pytest.raises(Terminated), guard.held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler has run by now, and deferred the signal
+            steps.append("counted")
+        assert steps == ["counted"] and guard.terminated
+        with pytest.raises(KeyboardInterrupt):  # outside a held block: at once
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            steps.append("never")
+    assert steps == ["counted"]
+    assert signal.getsignal(signal.SIGTERM) is before

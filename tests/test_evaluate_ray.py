@@ -116,6 +116,43 @@ def test_a_worker_killed_mid_run_loses_and_double_counts_nothing(
     assert _text(path) == _text(local_report)
 
 
+def _running_tasks() -> list[int]:
+    """Ray worker processes of this test's cluster that are inside an episode chunk."""
+    return [p for p in descendants(os.getpid()) if cmdline(p).startswith("ray::run_chunk")]
+
+
+@pytest.mark.xdist_group("ray-cluster")
+def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
+    cluster: Any, tmp_path: Path
+) -> None:
+    report = tmp_path / "e.json"
+    argv = ["evaluate", "--backend", "ray", "--address", cluster.address, "--episodes", "200"]
+    # the driver runs in its own process: it reads Ray's loopback setting from the environment
+    env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "kr210_sim", *argv, "--report", str(report)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        wait_for_records(tmp_path / "e.episodes.jsonl", 2)
+        assert _running_tasks()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=90)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert json.loads(report.read_text())["interrupted"] is True
+    deadline = time.monotonic() + 20
+    while _running_tasks() and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert [cmdline(p) for p in _running_tasks()] == []
+
+
 def test_sigterm_on_a_driver_that_started_ray_leaves_nothing_behind(tmp_path: Path) -> None:
     report = tmp_path / "e.json"
     argv = ["evaluate", "--backend", "ray", "--workers", "2", "--episodes", "200"]
