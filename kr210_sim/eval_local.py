@@ -10,7 +10,6 @@ driver if the driver itself is killed outright.
 
 from __future__ import annotations
 
-import logging
 import multiprocessing as mp
 import os
 import signal
@@ -24,8 +23,6 @@ from typing import Any
 
 from kr210_sim import episode
 from kr210_sim.errors import Kr210SimError
-
-log = logging.getLogger(__name__)
 
 #: Episodes queued per worker process (one running, one waiting in its pipe).
 QUEUED_PER_WORKER = 2
