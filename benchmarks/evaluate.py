@@ -98,7 +98,8 @@ def throughput(episodes: int, workers: int) -> None:
     reset_auth_token_state()
     ray_constants.ENABLE_RAY_CLUSTER = False  # keep a one-machine cluster on 127.0.0.1
     node = {"num_cpus": 1, "node_ip_address": "127.0.0.1"}
-    cluster = Cluster(initialize_head=True, head_node_args={**node, "include_dashboard": False})
+    head = {**node, "include_dashboard": False, "_system_config": {"worker_niceness": 0}}
+    cluster = Cluster(initialize_head=True, head_node_args=head)
     try:
         one_node = {**common, "workers": 1, "backend": "ray", "address": cluster.address}
         one = _line("Ray cluster, 1 node x 1 CPU", episodes, *_run(EvalConfig(**one_node))[:2])

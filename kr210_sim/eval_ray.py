@@ -13,6 +13,7 @@ twice, and none is lost while retries remain.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Iterable, Iterator
 from itertools import islice
 from pathlib import Path
@@ -101,14 +102,15 @@ class RayBackend:
         common: dict[str, Any] = {"log_to_driver": False, "logging_level": logging.WARNING}
         try:
             if self.address is None:
-                import os
-
                 ray.init(
                     address="local",
                     num_cpus=self.workers or os.cpu_count() or 1,
                     include_dashboard=False,
                     object_store_memory=LOCAL_OBJECT_STORE,
-                    _node_ip_address="127.0.0.1",
+                    # Ray runs its workers at niceness 15 by default: on a machine shared
+                    # with other work they would get a fraction of the CPU that local
+                    # processes (niceness 0) get.
+                    _system_config={"worker_niceness": 0},
                     **common,
                 )
             else:
