@@ -18,7 +18,7 @@ run: $(STAMP)
 	$(PY) -m kr210_sim run --cycles 10 $(ARGS)
 
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 --dist loadgroup
+	$(PY) -m pytest -q -n 2
 
 lint: $(STAMP)
 	$(PY) -m ruff check kr210_sim tests benchmarks

@@ -39,7 +39,11 @@ def _text(report: Path) -> str:
 
 @pytest.fixture(scope="module")
 def cluster() -> Iterator[Any]:
-    """A head and a second worker node, one CPU each, advertising 127.0.0.1; stopped by pid."""
+    """A head and a second worker node, one CPU each, advertising 127.0.0.1; stopped by pid.
+
+    One per test process (``make test`` runs two: each that gets a cluster test starts one;
+    pytest-xdist's ``xdist_group`` does not group tests under pytest 9.2).
+    """
     from ray._private import ray_constants
     from ray._private.authentication_test_utils import reset_auth_token_state
     from ray.cluster_utils import Cluster
@@ -74,7 +78,6 @@ def local_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-@pytest.mark.xdist_group("ray-cluster")  # one cluster for both tests (make test: loadgroup)
 def test_the_cluster_gives_the_local_report_byte_for_byte(
     cluster: Any, local_report: Path, tmp_path: Path
 ) -> None:
@@ -86,7 +89,6 @@ def test_the_cluster_gives_the_local_report_byte_for_byte(
     assert json.loads(local_report.read_text())["execution"]["backend"] == "local"
 
 
-@pytest.mark.xdist_group("ray-cluster")
 def test_a_worker_killed_mid_run_loses_and_double_counts_nothing(
     cluster: Any, local_report: Path, tmp_path: Path
 ) -> None:
@@ -121,7 +123,6 @@ def _running_tasks() -> list[int]:
     return [p for p in descendants(os.getpid()) if cmdline(p).startswith("ray::run_chunk")]
 
 
-@pytest.mark.xdist_group("ray-cluster")
 def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
     cluster: Any, tmp_path: Path
 ) -> None:
