@@ -2,14 +2,17 @@
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
-STAMP := $(VENV)/.installed
+# Extras to install (the gym extra runs the Gymnasium tests); `make test EXTRAS=test,gym,ray`
+# adds Ray (CI does) so the cluster tests run.
+EXTRAS ?= test,gym
+STAMP := $(VENV)/.installed-$(EXTRAS)
 
 .PHONY: run test lint bench scene video evaluate clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,gym]'
+	$(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $(STAMP)
 
 run: $(STAMP)

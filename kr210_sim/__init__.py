@@ -12,20 +12,16 @@ the current folder.
 
 The Python API (:mod:`kr210_sim.api`) is reached from the top level without importing it up
 front, so ``import kr210_sim`` stays light: ``kr210_sim.run(...)``, ``kr210_sim.evaluate(...)``,
-``kr210_sim.ik_check(...)`` and the report types load it on first use. ``kr210_sim.evaluate``
-is also the name of the evaluation module; that module is made callable (calling it calls
-:func:`kr210_sim.api.evaluate`), so ``kr210_sim.evaluate(episodes=10)`` and
-``from kr210_sim.evaluate import EvalConfig`` both work, whichever comes first. The Gymnasium
-environment is registered by ``import kr210_sim.envs``.
+``kr210_sim.ik_check(...)`` and the report types load it on first use (the evaluation's
+machinery is the module :mod:`kr210_sim.evaluation`). The Gymnasium environment is registered by
+``import kr210_sim.envs``.
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
 import os
 import sys
-import types
 from typing import Any
 
 #: True when kr210_sim chose MUJOCO_GL after mujoco was already imported (too late to count).
@@ -100,7 +96,16 @@ from kr210_sim.errors import (  # noqa: E402 (after the MUJOCO_GL choice)
 
 #: Names the package loads from :mod:`kr210_sim.api` on first use.
 _API = frozenset(
-    {"run", "ik_check", "Report", "RunReport", "EvalReport", "IkCheckReport", "RunInterrupted"}
+    {
+        "run",
+        "evaluate",
+        "ik_check",
+        "Report",
+        "RunReport",
+        "EvalReport",
+        "IkCheckReport",
+        "RunInterrupted",
+    }
 )
 
 
@@ -110,33 +115,8 @@ def __getattr__(name: str) -> Any:
         from kr210_sim import api
 
         return getattr(api, name)
-    if name == "evaluate":  # the module, made callable by _Package.__setattr__ as it is bound
-        return importlib.import_module("kr210_sim.evaluate")
     raise AttributeError(f"module 'kr210_sim' has no attribute {name!r}")
 
-
-class _CallableModule(types.ModuleType):
-    """The module :mod:`kr210_sim.evaluate`, which also is the API function of that name."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        from kr210_sim.api import evaluate
-
-        return evaluate(*args, **kwargs)
-
-
-class _Package(types.ModuleType):
-    """The package module: when the import system binds the submodule ``evaluate`` to it, the
-    submodule becomes callable (see the module docstring)."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name == "evaluate" and type(value) is types.ModuleType:
-            value.__class__ = _CallableModule
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
-if type(sys.modules.get(f"{__name__}.evaluate")) is types.ModuleType:  # imported already
-    sys.modules[f"{__name__}.evaluate"].__class__ = _CallableModule
 
 __all__ = [
     "ConfigError",

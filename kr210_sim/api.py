@@ -152,12 +152,13 @@ class RunReport(Report):
 
 @dataclass(frozen=True)
 class EvalReport(Report):
-    """What :func:`evaluate` did; ``data["episodes"]`` holds one record per episode."""
+    """What :func:`evaluate` did: the summary and the failed episodes' records (with a report
+    path, every episode's record is in the episodes file beside it, ``data["episodes_file"]``)."""
 
     @property
-    def episodes(self) -> tuple[Mapping[str, Any], ...]:
-        """One read-only record per episode (``seed``, ``success``, ``reason``, ...)."""
-        return tuple(MappingProxyType(e) for e in self.data["episodes"])
+    def failed_episodes(self) -> tuple[Mapping[str, Any], ...]:
+        """One read-only record per failed episode (``seed``, ``reason``, ``detail``, ...)."""
+        return tuple(MappingProxyType(e) for e in self.data["failed_episodes"])
 
 
 @dataclass(frozen=True)
@@ -311,8 +312,8 @@ def evaluate(
 ) -> EvalReport:
     """Monte-Carlo evaluation over seeded episodes (``python -m kr210_sim evaluate``).
 
-    A thin wrapper of :func:`kr210_sim.evaluate.evaluate`: ``options`` go to its
-    :class:`~kr210_sim.evaluate.EvalConfig` as they are.
+    A thin wrapper of :func:`kr210_sim.evaluation.evaluate`: ``options`` go to its
+    :class:`~kr210_sim.evaluation.EvalConfig` (``backend``, ``address``, ...) as they are.
 
     Args:
         episodes: Episodes (>= 1).
@@ -332,9 +333,8 @@ def evaluate(
         SceneError: The scene cannot be loaded.
         RunInterrupted: Ctrl-C stopped it (the report of the episodes finished was written).
     """
-    from kr210_sim import evaluate as evaluation
+    from kr210_sim import evaluation
     from kr210_sim.outputs import check_writable
-    from kr210_sim.report import write_json_atomic
     from kr210_sim.scene import load_model
 
     try:
@@ -352,12 +352,10 @@ def evaluate(
     if report_path is not None:
         check_writable(report_path)
     load_model(config.scene)  # a bad scene fails here, before any worker starts
-    data, interrupted = evaluation.evaluate(config, progress)
-    if report_path is not None:
-        write_json_atomic(report_path, data)
-    result = EvalReport(data, report_path)
-    if interrupted:
-        raise RunInterrupted(2, result)
+    outcome = evaluation.evaluate(config, report=report_path, progress=progress)
+    result = EvalReport(outcome.report, outcome.report_path)
+    if outcome.signal is not None:
+        raise RunInterrupted(outcome.signal, result)
     return result
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -247,8 +248,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from kr210_sim.evaluate import EvalConfig, evaluate
-    from kr210_sim.report import check_writable, write_json_atomic
+    from kr210_sim.evaluation import EvalConfig, evaluate
+    from kr210_sim.report import check_writable
     from kr210_sim.scene import load_model
 
     config = EvalConfig(
@@ -257,16 +258,27 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         randomize=args.randomize,
         workers=args.workers,
         scene=args.scene,
+        backend=args.backend,
+        address=args.address,
+        ik=args.ik,
     )
-    report_path = check_writable(args.report)
+    _load_ik(args.ik)  # a bad SPEC is one line here, before any worker starts
+    if config.backend == "ray":
+        from importlib.util import find_spec
+
+        from kr210_sim.eval_ray import INSTALL_HINT
+
+        if find_spec("ray") is None:
+            raise ConfigError(INSTALL_HINT)
+    check_writable(args.report)
     load_model(args.scene)  # a bad scene fails here, before any worker starts
-    report, interrupted = evaluate(config)
-    write_json_atomic(report_path, report)
+    outcome = evaluate(config, report=args.report, resume=args.resume)
+    report = outcome.report
     s = report["summary"]
     lo, hi = s["success_rate_ci95"]
     out = sys.stdout
     out.write(
-        f"  episodes      {s['episodes']}{' (interrupted)' if interrupted else ''}\n"
+        f"  episodes      {s['episodes']}{' (interrupted)' if outcome.interrupted else ''}\n"
         f"  successes     {s['successes']} ({100 * s['success_rate']:.2f} %, "
         f"95 % CI {100 * lo:.2f}-{100 * hi:.2f} %)\n"
     )
@@ -274,14 +286,23 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         seeds = ", ".join(str(e["seed"]) for e in f["examples"])
         out.write(f"  {reason:<13} {f['count']}  (seeds {seeds})\n")
     ct = s["cycle_time"]
+    ex = report["execution"]
+    where = f"{ex['workers']} worker(s), {ex['backend']}"
+    if ex["backend"] == "ray":
+        where += f" ({ex['nodes']} node(s), {ex['cpus']} CPUs)"
+    resumed = f", {ex['resumed_episodes']} resumed" if ex["resumed_episodes"] else ""
     out.write(
         f"  cycle time    mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s\n"
-        f"  wall time     {report['execution']['wall_time_s']:.1f} s on {config.workers} "
-        f"worker(s)\n  report: {report_path}\n"
+        f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
+        f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
     )
-    if interrupted:
-        sys.stderr.write(f"kr210_sim: interrupted after {s['episodes']} episodes\n")
-        return 130
+    if outcome.signal is not None:
+        name = signal.Signals(outcome.signal).name
+        sys.stderr.write(
+            f"kr210_sim: interrupted ({name}) after {s['episodes']} episodes; "
+            "continue with --resume\n"
+        )
+        return 128 + outcome.signal
     passed = s["success_rate"] >= args.min_success
     out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
     return 0 if passed else 1
@@ -441,10 +462,37 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
     ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
-    ev.add_argument("--workers", type=_positive_int, default=1, help="local processes (1)")
+    ev.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help="local processes (1), or Ray tasks in flight (the cluster's CPUs)",
+    )
+    ev.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="local: processes on this machine (default); ray: a Ray cluster",
+    )
+    ev.add_argument(
+        "--address",
+        default=None,
+        help="Ray cluster to use: auto or HOST:PORT (default: start Ray on this machine)",
+    )
+    ev.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from the episodes file beside --report, skipping episodes done",
+    )
     ev.add_argument("--seed", type=_seed, default=0, help="seed of the episode seeds (0)")
     ev.add_argument("--randomize", action="store_true", help="randomise each episode's target")
     ev.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    ev.add_argument(
+        "--ik",
+        default=None,
+        metavar="SPEC",
+        help="plan every episode with your IK: package.module:function or path/to/file.py:function",
+    )
     ev.add_argument(
         "--report",
         type=Path,

@@ -1,46 +1,43 @@
-"""Monte-Carlo evaluation: pure seeded episodes, worker-count independence, interruption."""
+"""Monte-Carlo evaluation: pure seeded episodes, worker-count independence, streaming, resume,
+interruption, the worker cap."""
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+import logging
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 
-import kr210_sim.evaluate as ev
+import kr210_sim.episode as episode
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
-from kr210_sim.evaluate import EvalConfig, episode_seed, evaluate, wilson_interval
+from kr210_sim.eval_local import LocalBackend
+from kr210_sim.evaluation import EvalConfig, episode_seed, evaluate
 from kr210_sim.report import strip_wall
+
+
+def _same(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    return json.dumps(strip_wall(a), sort_keys=True) == json.dumps(strip_wall(b), sort_keys=True)
+
+
+def _lines(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines()[1:]]
 
 
 def test_episode_seeds_are_fixed_and_distinct() -> None:
     seeds = [episode_seed(0, i) for i in range(1000)]
     assert len(set(seeds)) == 1000
-    assert seeds[:3] == [episode_seed(0, 0), episode_seed(0, 1), episode_seed(0, 2)]
+    # golden values: the derivation must never change (old reports replay by these seeds)
+    assert seeds[:3] == [2968811710, 3964924996, 3141116543]
     assert episode_seed(1, 0) != episode_seed(0, 0)
     assert all(0 <= s < 2**32 for s in seeds)
-
-
-@pytest.mark.parametrize(
-    ("k", "n", "lo", "hi"),
-    [
-        (95, 100, 0.888250, 0.978456),
-        (10, 10, 0.722467, 1.0),
-        (0, 10, 0.0, 0.277533),
-        (1000, 1000, 0.996173, 1.0),
-    ],
-)
-def test_wilson_interval_golden(k: int, n: int, lo: float, hi: float) -> None:
-    got = wilson_interval(k, n)
-    assert got == pytest.approx((lo, hi), abs=1e-6)
-    # Cross-check: the bounds are the roots of (p - x)^2 = z^2 x (1 - x) / n.
-    z, p = 1.959964, k / n
-    roots = sorted(np.roots([1 + z * z / n, -(2 * p + z * z / n), p * p]).real)
-    assert got == pytest.approx(roots, abs=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -49,50 +46,41 @@ def test_wilson_interval_golden(k: int, n: int, lo: float, hi: float) -> None:
         ({"episodes": 0}, "episodes must be"),
         ({"workers": 0}, "workers must be"),
         ({"seed": -1}, "seed must be"),
+        ({"backend": "slurm"}, "backend must be one of local, ray"),
+        ({"address": "auto"}, "--address needs --backend ray"),
     ],
 )
-def test_config_is_checked(kwargs: dict[str, int], message: str) -> None:
+def test_config_is_checked(kwargs: dict[str, Any], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
-        EvalConfig(**kwargs)  # type: ignore[arg-type]
+        EvalConfig(**kwargs)
 
 
-def test_same_results_whatever_the_worker_count() -> None:
-    one, _ = evaluate(EvalConfig(episodes=6, seed=3, randomize=True, workers=1))
-    two, _ = evaluate(EvalConfig(episodes=6, seed=3, randomize=True, workers=2))
-    assert json.dumps(strip_wall(one), sort_keys=True) == json.dumps(
-        strip_wall(two), sort_keys=True
-    )
-    assert [e["episode"] for e in one["episodes"]] == list(range(6))
-    assert one["summary"]["successes"] == 6
-    assert one["execution"]["workers"] == 1 and two["execution"]["workers"] == 2
+def test_same_results_whatever_the_worker_count(tmp_path: Path) -> None:
+    one = evaluate(EvalConfig(episodes=6, seed=3, randomize=True, workers=1))
+    two = evaluate(EvalConfig(episodes=6, seed=3, randomize=True, workers=2))
+    assert _same(one.report, two.report)
+    assert one.report["summary"]["successes"] == 6
+    assert one.report["execution"]["workers"] == 1 and two.report["execution"]["workers"] == 2
+    assert one.report["execution"]["backend"] == "local"
 
 
-def test_an_episode_replays_as_a_one_cycle_run(tmp_path: Path) -> None:
-    report, _ = evaluate(EvalConfig(episodes=2, seed=5, randomize=True))
-    episode = report["episodes"][1]
+def test_records_stream_to_the_episodes_file_and_replay_as_runs(tmp_path: Path) -> None:
+    outcome = evaluate(EvalConfig(episodes=3, seed=5, randomize=True), report=tmp_path / "e.json")
+    assert outcome.episodes_path == tmp_path / "e.episodes.jsonl"
+    written = json.loads((tmp_path / "e.json").read_text())
+    assert written == json.loads(json.dumps(outcome.report))
+    assert written["episodes_file"] == "e.episodes.jsonl"
+    records = sorted(_lines(tmp_path / "e.episodes.jsonl"), key=lambda r: r["episode"])
+    assert [r["episode"] for r in records] == [0, 1, 2]
+    assert [r["seed"] for r in records] == [episode_seed(5, i) for i in range(3)]
+    # any episode replays exactly as a one-cycle run
     out = tmp_path / "replay.json"
-    argv = ["run", "--cycles", "1", "--seed", str(episode["seed"]), "--randomize"]
+    argv = ["run", "--cycles", "1", "--seed", str(records[1]["seed"]), "--randomize"]
     assert main([*argv, "--report", str(out)]) == 0
     (cycle,) = json.loads(out.read_text())["cycles"]
-    assert cycle["slot"] == episode["slot"]
-    assert cycle["cycle_time"] == episode["cycle_time"]
-    assert cycle["target"]["spec"]["mass"] == pytest.approx(episode["target"]["mass"], abs=1e-6)
-
-
-def test_failures_are_counted_with_example_seeds() -> None:
-    records = [
-        {"episode": i, "seed": 100 + i, "slot": 1, "success": i % 3 != 0,
-         "reason": None if i % 3 else "grasp_missed", "detail": "d" if i % 3 == 0 else "",
-         "cycle_time": 4.0 + i / 10, "creep_mm": 1.0, "max_tracking_error_deg": 0.3,
-         "grasp_attempts": 2 if i == 1 else 1}
-        for i in range(9)
-    ]  # fmt: skip
-    s = ev.summarise_episodes(records)
-    assert (s["episodes"], s["successes"]) == (9, 6)
-    f = s["failures"]["grasp_missed"]
-    assert f["count"] == 3 and [e["seed"] for e in f["examples"]] == [100, 103, 106]
-    assert s["retries_recovered"] == 1
-    assert s["cycle_time"]["max"] == pytest.approx(4.8)
+    assert cycle["slot"] == records[1]["slot"]
+    assert cycle["cycle_time"] == records[1]["cycle_time"]
+    assert cycle["target"]["spec"]["mass"] == pytest.approx(records[1]["target"]["mass"], abs=1e-6)
 
 
 def test_ctrl_c_writes_the_episodes_done_and_exits_130(
@@ -101,11 +89,134 @@ def test_ctrl_c_writes_the_episodes_done_and_exits_130(
     capsys: pytest.CaptureFixture[str],
     ctrl_c_on_call: Callable[[Callable[..., Any], int], Callable[..., Any]],
 ) -> None:
-    monkeypatch.setattr(ev, "run_episode", ctrl_c_on_call(ev.run_episode, 3))
+    monkeypatch.setattr(episode, "run_episode", ctrl_c_on_call(episode.run_episode, 3))
     report = tmp_path / "eval.json"
     assert main(["evaluate", "--episodes", "5", "--report", str(report)]) == 130
     data = json.loads(report.read_text())
     assert data["interrupted"] is True
-    assert [e["episode"] for e in data["episodes"]] == [0, 1]
     assert data["summary"]["episodes"] == 2
-    assert "interrupted after 2 episodes" in capsys.readouterr().err
+    assert [r["episode"] for r in _lines(tmp_path / "eval.episodes.jsonl")] == [0, 1]
+    err = capsys.readouterr().err
+    assert "interrupted (SIGINT) after 2 episodes; continue with --resume" in err
+
+
+def test_resume_skips_the_episodes_done_and_gives_the_uninterrupted_report(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    ctrl_c_on_call: Callable[[Callable[..., Any], int], Callable[..., Any]],
+) -> None:
+    config = EvalConfig(episodes=6, seed=11, randomize=True)
+    whole = evaluate(config, report=tmp_path / "whole" / "e.json")
+    cut = tmp_path / "cut" / "e.json"
+    with monkeypatch.context() as m:
+        m.setattr(episode, "run_episode", ctrl_c_on_call(episode.run_episode, 4))
+        first = evaluate(config, report=cut)
+    assert first.interrupted and first.report["summary"]["episodes"] == 3
+    log = cut.with_name("e.episodes.jsonl")
+    with log.open("a") as fh:  # a kill -9 in the middle of a line
+        fh.write('{"episode": 3, "seed": 1')
+    calls: list[int] = []
+    real = episode.run_episode
+    monkeypatch.setattr(episode, "run_episode", lambda s, *a: calls.append(s) or real(s, *a))
+    second = evaluate(config, report=cut, resume=True)
+    assert calls == [episode_seed(11, i) for i in (3, 4, 5)]  # only the episodes not done
+    assert second.report["execution"]["resumed_episodes"] == 3
+    assert _same(second.report, whole.report)
+    assert strip_wall(json.loads(cut.read_text())) == strip_wall(whole.report)
+    assert sorted(r["episode"] for r in _lines(log)) == list(range(6))
+
+
+def test_resume_refuses_another_evaluations_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    report = tmp_path / "e.json"
+    evaluate(EvalConfig(episodes=1, seed=1), report=report)
+    log = report.with_name("e.episodes.jsonl").read_bytes()
+    capsys.readouterr()
+    argv = ["evaluate", "--episodes", "1", "--seed", "2", "--report", str(report), "--resume"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "its episodes differ in seed; run without --resume" in err
+    assert len(err.strip().splitlines()) == 1
+    assert report.with_name("e.episodes.jsonl").read_bytes() == log  # untouched
+
+
+def test_a_record_delivered_twice_counts_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A retried task may deliver records again: the driver keys them by episode."""
+    real = LocalBackend.results
+
+    def twice(self: LocalBackend, jobs: Any) -> Iterator[list[dict[str, Any]]]:
+        for records in real(self, jobs):
+            yield records
+            yield records
+
+    monkeypatch.setattr(LocalBackend, "results", twice)
+    outcome = evaluate(EvalConfig(episodes=3, seed=2), report=tmp_path / "e.json")
+    monkeypatch.undo()
+    reference = evaluate(EvalConfig(episodes=3, seed=2), report=tmp_path / "ref" / "e.json")
+    assert outcome.report["summary"]["episodes"] == 3
+    assert len(_lines(tmp_path / "e.episodes.jsonl")) == 3
+    assert _same(outcome.report, reference.report)
+
+
+def test_workers_are_capped_at_the_episodes_and_warned_above_the_cores(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    cores = len(os.sched_getaffinity(0))
+    with caplog.at_level(logging.WARNING, logger="kr210_sim.evaluation"):
+        outcome = evaluate(EvalConfig(episodes=2, workers=cores + 1))
+    assert outcome.report["execution"]["workers"] == 2
+    assert f"--workers {cores + 1} is more than the {cores} cores" in caplog.text
+
+
+def test_ray_backend_without_ray_is_a_one_line_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if the extra were not installed
+    argv = ["evaluate", "--backend", "ray", "--report", str(tmp_path / "e.json")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err == "kr210_sim: error: --backend ray needs Ray: pip install 'kr210_sim[ray]'\n"
+
+
+def test_address_needs_the_ray_backend(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["evaluate", "--address", "auto", "--report", str(tmp_path / "e.json")]
+    assert main(argv) == 2
+    assert "--address needs --backend ray" in capsys.readouterr().err
+
+
+def test_a_signal_waits_for_the_end_of_a_held_block() -> None:
+    """SIGTERM while a record is being written and counted: both happen, then it stops."""
+    from kr210_sim.evaluation import Terminated, _signals
+
+    before = signal.getsignal(signal.SIGTERM)
+    steps: list[str] = []
+    with _signals() as guard:
+        with pytest.raises(Terminated), guard.held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler has run by now, and deferred the signal
+            steps.append("counted")
+        assert steps == ["counted"] and guard.terminated
+        with pytest.raises(KeyboardInterrupt):  # outside a held block: at once
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            steps.append("never")
+    assert steps == ["counted"]
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_evaluate_plans_with_a_user_ik_in_the_workers(tmp_path: Path) -> None:
+    """`evaluate --ik`: the SPEC travels to the worker processes; the broken IK (no 0.054 m
+    offset) fails every episode as ik_failed, and the replay command names it."""
+    from kr210_sim.paths import ROOT
+
+    broken = tmp_path / "broken_ik.py"
+    broken.write_text((ROOT / "examples" / "ik_dh.py").read_text().replace("0.054", "0.0"))
+    spec = f"{broken}:solve"
+    out = evaluate(EvalConfig(episodes=2, workers=2, ik=spec), report=tmp_path / "e.json")
+    s = out.report["summary"]
+    assert s["successes"] == 0 and s["failures"]["ik_failed"]["count"] == 2
+    assert out.report["config"]["ik"] == spec
+    assert out.report["config"]["replay"].endswith(f"--ik {spec}")

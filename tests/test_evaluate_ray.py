@@ -1,0 +1,181 @@
+"""``evaluate --backend ray`` on a real two-node Ray cluster on 127.0.0.1: the same report as
+the local backend, byte for byte; a worker process killed mid-run loses and double-counts
+nothing; SIGTERM on a driver that started its own Ray leaves no process behind.
+
+Select with ``-m ray``; skipped when Ray is not installed (``pip install -e '.[ray]'``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from evaluate_procs import cmdline, descendants, left_behind, record_count, wait_for_records
+
+from kr210_sim.evaluation import EvalConfig, evaluate
+from kr210_sim.report import strip_wall
+
+ray = pytest.importorskip("ray", reason="needs the [ray] extra: pip install -e '.[ray]'")
+pytestmark = [pytest.mark.ray, pytest.mark.slow]
+
+#: The evaluation every test compares: few episodes, randomised cells.
+CONFIG = {"episodes": 12, "seed": 4, "randomize": True}
+
+
+def _text(report: Path) -> str:
+    """The report file without its machine-dependent fields, as the writer lays it out."""
+    return json.dumps(strip_wall(json.loads(report.read_text())), indent=2, sort_keys=True)
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[Any]:
+    """A head and a second worker node, one CPU each, advertising 127.0.0.1; stopped by pid.
+
+    One per test process (``make test`` runs two: each that gets a cluster test starts one;
+    pytest-xdist's ``xdist_group`` does not group tests under pytest 9.2).
+    """
+    from ray._private import ray_constants
+    from ray._private.authentication_test_utils import reset_auth_token_state
+    from ray.cluster_utils import Cluster
+
+    patch = pytest.MonkeyPatch()
+    # Ray's token authentication with a token of this test's own (set the same way for the
+    # head, the worker node and the driver: they all read this process's environment).
+    patch.setenv("RAY_AUTH_MODE", "token")
+    patch.setenv("RAY_AUTH_TOKEN", secrets.token_hex(32))
+    reset_auth_token_state()  # this process read its settings when it imported Ray
+    # Ray turns a 127.0.0.1 cluster address into the machine's interface address before it
+    # connects; a single-machine cluster keeps it on loopback.
+    patch.setattr(ray_constants, "ENABLE_RAY_CLUSTER", False)
+    before = descendants(os.getpid())
+    node = {"num_cpus": 1, "node_ip_address": "127.0.0.1"}
+    c = Cluster(initialize_head=True, head_node_args={**node, "include_dashboard": False})
+    try:
+        c.add_node(**node)
+        started = descendants(os.getpid()) - before
+        yield c
+    finally:
+        c.shutdown()  # kills every process of both nodes by pid
+        patch.undo()
+        reset_auth_token_state()
+    assert left_behind(started) == []
+
+
+@pytest.fixture(scope="module")
+def local_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("local") / "e.json"
+    evaluate(EvalConfig(**CONFIG, workers=1), report=path)
+    return path
+
+
+def test_the_cluster_gives_the_local_report_byte_for_byte(
+    cluster: Any, local_report: Path, tmp_path: Path
+) -> None:
+    path = tmp_path / "e.json"
+    outcome = evaluate(EvalConfig(**CONFIG, backend="ray", address=cluster.address), report=path)
+    assert _text(path) == _text(local_report)
+    ex = outcome.report["execution"]
+    assert (ex["backend"], ex["nodes"], ex["cpus"], ex["workers"]) == ("ray", 2, 2, 2)
+    assert json.loads(local_report.read_text())["execution"]["backend"] == "local"
+
+
+def test_a_worker_killed_mid_run_loses_and_double_counts_nothing(
+    cluster: Any, local_report: Path, tmp_path: Path
+) -> None:
+    path = tmp_path / "e.json"
+    log = tmp_path / "e.episodes.jsonl"
+    killed: list[str] = []
+
+    def kill_a_busy_worker() -> None:
+        wait_for_records(log, 2)
+        deadline = time.monotonic() + 60
+        while not killed and time.monotonic() < deadline:
+            for pid in descendants(os.getpid()):
+                if cmdline(pid).startswith("ray::run_chunk"):  # a worker inside a task
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(cmdline(pid) or str(pid))
+                    return
+            time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_a_busy_worker, daemon=True)
+    killer.start()
+    outcome = evaluate(EvalConfig(**CONFIG, backend="ray", address=cluster.address), report=path)
+    killer.join(timeout=5)
+    assert killed, "no Ray worker was caught running a task"
+    assert not outcome.interrupted
+    records = [json.loads(line) for line in log.read_text().splitlines()[1:]]
+    assert sorted(r["episode"] for r in records) == list(range(CONFIG["episodes"]))
+    assert _text(path) == _text(local_report)
+
+
+def _running_tasks() -> list[int]:
+    """Ray worker processes of this test's cluster that are inside an episode chunk."""
+    return [p for p in descendants(os.getpid()) if cmdline(p).startswith("ray::run_chunk")]
+
+
+def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
+    cluster: Any, tmp_path: Path
+) -> None:
+    report = tmp_path / "e.json"
+    argv = ["evaluate", "--backend", "ray", "--address", cluster.address, "--episodes", "200"]
+    # the driver runs in its own process: it reads Ray's loopback setting from the environment
+    env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "kr210_sim", *argv, "--report", str(report)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        wait_for_records(tmp_path / "e.episodes.jsonl", 2)
+        assert _running_tasks()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=90)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert json.loads(report.read_text())["interrupted"] is True
+    deadline = time.monotonic() + 20
+    while _running_tasks() and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert [cmdline(p) for p in _running_tasks()] == []
+
+
+def test_sigterm_on_a_driver_that_started_ray_leaves_nothing_behind(tmp_path: Path) -> None:
+    report = tmp_path / "e.json"
+    argv = ["evaluate", "--backend", "ray", "--workers", "2", "--episodes", "200"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "kr210_sim", *argv, "--report", str(report)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        wait_for_records(tmp_path / "e.episodes.jsonl", 2)
+        started = descendants(proc.pid)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=90)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True
+    assert data["summary"]["episodes"] == record_count(tmp_path / "e.episodes.jsonl")
+    assert left_behind(started, grace=15.0) == []

@@ -1,0 +1,119 @@
+"""The streaming summary: exact against NumPy, independent of arrival order, bounded."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kr210_sim.eval_summary import EpisodeSummary, percentile, wilson_interval
+
+
+@pytest.mark.parametrize(
+    ("k", "n", "lo", "hi"),
+    [
+        (95, 100, 0.888250, 0.978456),
+        (10, 10, 0.722467, 1.0),
+        (0, 10, 0.0, 0.277533),
+        (1000, 1000, 0.996173, 1.0),
+    ],
+)
+def test_wilson_interval_golden(k: int, n: int, lo: float, hi: float) -> None:
+    got = wilson_interval(k, n)
+    assert got == pytest.approx((lo, hi), abs=1e-6)
+    # Cross-check: the bounds are the roots of (p - x)^2 = z^2 x (1 - x) / n.
+    z, p = 1.959964, k / n
+    roots = sorted(np.roots([1 + z * z / n, -(2 * p + z * z / n), p * p]).real)
+    assert got == pytest.approx(roots, abs=1e-9)
+
+
+def test_histogram_percentiles_match_numpy() -> None:
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        n = int(rng.integers(1, 60))
+        # cycle times: multiples of a 2 ms tick, few distinct values, many repeats
+        values = np.round(rng.integers(2000, 2000 + int(rng.integers(1, 40)), n) * 0.002, 6)
+        histogram = Counter(values.tolist())
+        for q in (0, 5, 50, 95, 99.9, 100, float(rng.uniform(0, 100))):
+            want = float(np.percentile(values, q))
+            assert percentile(histogram, q) == pytest.approx(want, abs=1e-12), (trial, q)
+
+
+def _records(n: int, seed: int) -> list[dict[str, Any]]:
+    rng = np.random.default_rng(seed)
+    reasons = [None, None, None, "grasp_missed", "missed_bin", "unreachable"]
+    out = []
+    for i in range(n):
+        reason = reasons[int(rng.integers(len(reasons)))]
+        out.append(
+            {
+                "episode": i,
+                "seed": 1000 + i,
+                "slot": int(rng.integers(1, 10)),
+                "success": reason is None,
+                "reason": reason,
+                "detail": "" if reason is None else f"d{i}",
+                "cycle_time": round(float(rng.integers(2200, 2900)) * 0.002, 6),
+                "creep_mm": float(rng.uniform(0, 5)),
+                "max_tracking_error_deg": float(rng.uniform(0, 0.2)),
+                "grasp_attempts": int(rng.integers(1, 3)),
+            }
+        )
+    return out
+
+
+def _summarise(records: list[dict[str, Any]], cap: int = 1000) -> EpisodeSummary:
+    s = EpisodeSummary(failed_records=cap)
+    for r in records:
+        s.add(r)
+    return s
+
+
+def test_summary_matches_a_direct_computation() -> None:
+    records = _records(400, seed=1)
+    s = _summarise(records).summary()
+    ok = [r for r in records if r["success"]]
+    times = np.array([r["cycle_time"] for r in ok])
+    assert (s["episodes"], s["successes"]) == (400, len(ok))
+    assert s["cycle_time"]["mean"] == round(float(np.mean(times)), 6)
+    assert s["cycle_time"]["std"] == pytest.approx(float(np.std(times)), abs=1e-6)
+    assert s["cycle_time"]["p50"] == round(float(np.median(times)), 6)
+    assert s["cycle_time"]["p95"] == round(float(np.percentile(times, 95)), 6)
+    assert s["cycle_time"]["max"] == float(times.max())
+    gripped = [r["creep_mm"] for r in records if r["reason"] not in ("unreachable", "grasp_missed")]
+    assert s["max_creep_mm"] == max(gripped)
+    assert s["grasp_retries"] == sum(r["grasp_attempts"] - 1 for r in records)
+    assert s["retries_recovered"] == sum(r["grasp_attempts"] > 1 for r in ok)
+    for reason, f in s["failures"].items():
+        mine = [r for r in records if r["reason"] == reason]
+        assert f["count"] == len(mine)
+        assert [e["seed"] for e in f["examples"]] == [r["seed"] for r in mine[:5]]
+
+
+def test_summary_does_not_depend_on_arrival_order() -> None:
+    records = _records(300, seed=2)
+    reference = _summarise(records, cap=7)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        shuffled = [records[i] for i in rng.permutation(len(records))]
+        s = _summarise(shuffled, cap=7)
+        assert s.summary() == reference.summary()
+        assert s.failed_records() == reference.failed_records()
+
+
+def test_failed_records_keep_the_lowest_episodes_up_to_the_cap() -> None:
+    records = _records(200, seed=4)
+    failed = [r for r in records if not r["success"]]
+    s = _summarise(records[::-1], cap=10)
+    assert s.failed == len(failed) > 10
+    assert s.failed_records() == failed[:10]
+    assert len(s._failed) == 10  # bounded, whatever the number of failures
+
+
+def test_empty_summary() -> None:
+    s = EpisodeSummary().summary()
+    assert s["episodes"] == 0 and s["success_rate"] == 0.0
+    assert s["success_rate_ci95"] == [0.0, 1.0]
+    assert s["cycle_time"] == {"mean": 0.0, "std": 0.0, "p50": 0.0, "p95": 0.0, "max": 0.0}
