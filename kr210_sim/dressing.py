@@ -23,6 +23,7 @@ from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from kr210_sim.meshes import BUILDERS, MAIN_FINISH
 
@@ -48,7 +49,7 @@ WALL_RGBA = (0.72, 0.73, 0.74, 1.0)
 DADO_RGBA = (0.32, 0.38, 0.42, 1.0)
 
 #: Wire spacing of the bin cage's mesh walls [m] and wire half-thickness [m].
-CAGE_PITCH = 0.1
+CAGE_PITCH = 0.125
 CAGE_WIRE = 0.004
 
 
@@ -80,6 +81,50 @@ def _geom(
     if rgba is not None:
         geom.rgba = [float(v) for v in rgba]
     return geom
+
+
+class _Boxes:
+    """Boxes gathered by colour and drawn as one mesh geom per colour: a rack or a cage of a
+    hundred bars costs a handful of draw calls instead of a hundred (render time per frame)."""
+
+    def __init__(self) -> None:
+        self.parts: dict[tuple[float, ...], list[tuple[Sequence[float], Sequence[float], float]]]
+        self.parts = {}
+
+    def add(
+        self,
+        center: Sequence[float],
+        half: Sequence[float],
+        rgba: Sequence[float],
+        pitch: float = 0.0,
+    ) -> None:
+        """A box of half sizes ``half`` [m] at ``center`` [m], turned by ``pitch`` [rad] about y."""
+        self.parts.setdefault(tuple(rgba), []).append((center, half, pitch))
+
+    def flush(
+        self, spec: mujoco.MjSpec, body: mujoco.MjsBody, visual: mujoco.MjsDefault, prefix: str
+    ) -> None:
+        """Add one mesh (flat-shaded: a normal per triangle) and geom per colour to ``body``."""
+        unit = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+        for k, (rgba, boxes) in enumerate(self.parts.items()):
+            verts, faces, normals = [], [], []
+            for i, (center, half, pitch) in enumerate(boxes):
+                c, si = np.cos(pitch), np.sin(pitch)
+                rot = np.array([[c, 0.0, si], [0.0, 1.0, 0.0], [-si, 0.0, c]])
+                verts.append((unit.vertices * np.asarray(half)) @ rot.T + np.asarray(center))
+                faces.append(unit.faces + 8 * i)
+                normals.append(unit.face_normals @ rot.T)
+            name = f"{prefix}_{k}"
+            mesh = spec.add_mesh(name=name)
+            mesh.uservert = np.round(np.vstack(verts), 6).ravel().tolist()
+            mesh.userface = np.vstack(faces).ravel().tolist()
+            mesh.usernormal = np.round(np.vstack(normals), 6).ravel().tolist()
+            mesh.userfacenormal = np.repeat(np.arange(12 * len(boxes)), 3).tolist()
+            geom = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name)
+            geom.classname = visual
+            geom.contype, geom.conaffinity, geom.group, geom.density = 0, 0, 2, 0.0
+            geom.rgba = list(rgba)
+        self.parts.clear()
 
 
 def add_materials(spec: mujoco.MjSpec) -> None:
@@ -131,6 +176,7 @@ def hide(body: mujoco.MjsBody) -> None:
 
 
 def dress_shelf(
+    spec: mujoco.MjSpec,
     body: mujoco.MjsBody,
     visual: mujoco.MjsDefault,
     x_front: float,
@@ -144,6 +190,7 @@ def dress_shelf(
     """Draw the shelf as pallet racking: upright frames, beams, decks and a mesh back panel.
 
     Args:
+        spec: The scene (the bars are drawn as one mesh per colour).
         body: The shelf body.
         visual: The visual default class.
         x_front: x of the shelf's open front [m].
@@ -154,58 +201,35 @@ def dress_shelf(
         board_thickness: Board thickness [m].
         upright_y: y of each upright frame's centre line [m].
     """
+    boxes = _Boxes()
     post = 0.04  # half size of an upright post (a 80 mm column)
     xs = (x_front + post, x_front + depth - post - 0.02)
-    for i, y in enumerate(upright_y):
-        for j, x in enumerate(xs):
-            _geom(
-                body,
-                visual,
-                f"rack_post_{i}_{j}",
-                (x, y, height / 2),
-                (post, 0.035, height / 2),
-                UPRIGHT_RGBA,
-            )
-            _geom(body, visual, f"rack_foot_{i}_{j}", (x, y, 0.005), (0.06, 0.06, 0.005), DECK_RGBA)
+    for y in upright_y:
+        for x in xs:
+            boxes.add((x, y, height / 2), (post, 0.035, height / 2), UPRIGHT_RGBA)
         # zig-zag bracing between the two posts of the frame
         span = xs[1] - xs[0] - 2 * post
-        n = max(2, round(height / 0.6))
+        n = max(2, round(height / 0.75))
         step = (height - 0.3) / n
         length = float(np.hypot(span, step))
         angle = float(np.arctan2(step, span))
         for k in range(n):
             z = 0.15 + (k + 0.5) * step
             sign = 1 if k % 2 == 0 else -1
-            _geom(
-                body,
-                visual,
-                f"rack_brace_{i}_{k}",
-                ((xs[0] + xs[1]) / 2, y, z),
-                (length / 2, 0.012, 0.012),
-                UPRIGHT_RGBA,
-                pitch=-sign * angle,
+            boxes.add(
+                ((xs[0] + xs[1]) / 2, y, z), (length / 2, 0.012, 0.012), UPRIGHT_RGBA, -sign * angle
             )
     bays = list(pairwise(upright_y))
     levels = [*board_tops, height]
-    for b, (y0, y1) in enumerate(bays):
+    for y0, y1 in bays:
         yc, half = (y0 + y1) / 2, (y1 - y0) / 2 - 0.035
         for r, top in enumerate(levels):
-            for j, x in enumerate(xs):
+            for x in xs:
                 # beams 5 mm below the deck's top, so the two never share a plane
                 z = top - 0.005 - 0.055
-                _geom(
-                    body,
-                    visual,
-                    f"rack_beam_{b}_{r}_{j}",
-                    (x, yc, z),
-                    (0.025, half, 0.055),
-                    BEAM_RGBA,
-                )
+                boxes.add((x, yc, z), (0.025, half, 0.055), BEAM_RGBA)
             if r < len(board_tops):
-                _geom(
-                    body,
-                    visual,
-                    f"rack_deck_{b}_{r}",
+                boxes.add(
                     (x_front + depth / 2 - 0.01, yc, top - board_thickness / 4),
                     (depth / 2 - 0.07, half, board_thickness / 4),
                     DECK_RGBA,
@@ -218,9 +242,11 @@ def dress_shelf(
         (0.004, half_width, height / 2),
         MESH_RGBA,
     )
+    boxes.flush(spec, body, visual, "rack")
 
 
 def dress_bin(
+    spec: mujoco.MjSpec,
     body: mujoco.MjsBody,
     visual: mujoco.MjsDefault,
     center_xy: tuple[float, float],
@@ -231,6 +257,7 @@ def dress_bin(
     """Draw the bin as a wire-mesh pallet cage: a steel frame, a floor and see-through walls.
 
     Args:
+        spec: The scene (the bars are drawn as one mesh per colour).
         body: The bin body.
         visual: The visual default class.
         center_xy: Centre of the bin on the floor [m].
@@ -238,33 +265,21 @@ def dress_bin(
         height: Wall height [m].
         floor_top: z of the floor's top surface [m].
     """
+    boxes = _Boxes()
     bx, by = center_xy
     h = outer_size / 2
     tube = 0.02
-    _geom(
-        body,
-        visual,
-        "cage_floor",
-        (bx, by, floor_top / 2),
-        (h, h, floor_top / 2),
-        FINISH_LOOK["dark"][0],
-    )
-    for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
-        _geom(
-            body,
-            visual,
-            f"cage_post_{i}",
+    boxes.add((bx, by, floor_top / 2), (h, h, floor_top / 2), FINISH_LOOK["dark"][0])
+    for sx, sy in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+        boxes.add(
             (bx + sx * (h - tube), by + sy * (h - tube), height / 2),
             (tube, tube, height / 2),
             CAGE_RGBA,
         )
-    for i, z in enumerate((height - tube, height / 2)):
-        for axis, (dx, dy) in enumerate(((0, 1), (1, 0))):
+    for z in (height - tube, height / 2):
+        for dx, dy in ((0, 1), (1, 0)):
             for s in (-1, 1):
-                _geom(
-                    body,
-                    visual,
-                    f"cage_rail_{i}_{axis}_{'p' if s > 0 else 'n'}",
+                boxes.add(
                     (bx + dx * s * (h - tube), by + dy * s * (h - tube), z),
                     (tube if dx else h, tube if dy else h, tube),
                     CAGE_RGBA,
@@ -285,14 +300,12 @@ def dress_bin(
             )
             for k in range(1, n):
                 t = -h + k * CAGE_PITCH
-                _geom(
-                    body,
-                    visual,
-                    f"cage_wire_{side}_{k}",
+                boxes.add(
                     (x + dy * t, y + dx * t, height / 2),
                     (CAGE_WIRE, CAGE_WIRE, height / 2),
                     CAGE_RGBA,
                 )
+    boxes.flush(spec, body, visual, "cage")
 
 
 def dress_floor(

@@ -30,7 +30,7 @@ from kr210_sim.outputs import check_folder, write_bytes_atomic
 from kr210_sim.paths import MESH_DIR
 
 #: Facets around a round part.
-SECTIONS = 48
+SECTIONS = 32
 
 #: Finishes (materials) of the mesh parts; each link's URDF material is its main finish.
 FINISHES = ("orange", "dark", "black", "steel", "alu")
@@ -110,7 +110,7 @@ def _rbox(
 ) -> trimesh.Trimesh:
     """A box between corners ``lo`` and ``hi`` [m] with every edge rounded by ``radius`` [m]."""
     lo_a, hi_a = np.array(lo, float) + radius, np.array(hi, float) - radius
-    ball = trimesh.creation.uv_sphere(radius=radius, count=[10, 12]).vertices
+    ball = trimesh.creation.uv_sphere(radius=radius, count=[6, 8]).vertices
     corners = [
         ball + np.array([x, y, z])
         for x in (lo_a[0], hi_a[0])

@@ -378,6 +378,7 @@ def _dress(
     shelf = spec.body("shelf")
     dressing.hide(shelf)
     dressing.dress_shelf(
+        spec,
         shelf,
         visual,
         x_front=s.x_front,
@@ -398,7 +399,7 @@ def _dress(
     )
     bin_body = spec.body("bin")
     dressing.hide(bin_body)
-    dressing.dress_bin(bin_body, visual, b.center_xy, b.outer_size, b.height, b.floor_top)
+    dressing.dress_bin(spec, bin_body, visual, b.center_xy, b.outer_size, b.height, b.floor_top)
     dressing.add_lights(spec, center=(1.0, 1.0, 1.0))
 
 
