@@ -1,14 +1,14 @@
 """Video export cost: the bare renderer against the whole pipeline, for the same frames.
 
-Run: ``python benchmarks/video.py [--frames N] [--scene OLD.xml ...]``. Prints figures only.
-The states are taken from one simulated cycle (sampled at 30 fps); "bare" renders each state
-from the overview camera and discards it; "pipeline" is :class:`kr210_sim.video.FrameRecorder`: render, hand over to the writer
-thread, draw the overlay, pipe to ffmpeg (libx264) and finish the file. Both are timed in the
-same process, so their ratio is meaningful on a noisy shared machine even when the absolute
-figures are not. ``--scene`` adds the bare 640x480 cost per frame at the default video quality
-(medium) of other scene files (e.g. an older commit's ``scenes/kr210_cell.xml`` with its
-meshes: ``git archive REV scenes assets | tar -x -C /tmp/old``) next to the committed one's,
-rendering the same states.
+Run: ``python benchmarks/video.py [--frames N] [--scene OLD.xml ...]``. Prints figures only. The
+states are taken from one simulated cycle (sampled at 30 fps); "bare" renders each state from
+the overview camera and discards it; "pipeline" is :class:`kr210_sim.video.FrameRecorder`:
+render, hand over to the writer thread, draw the overlay, pipe to ffmpeg (libx264) and finish
+the file. Both are timed in the same process, so their ratio is meaningful on a noisy shared
+machine even when the absolute figures are not. ``--scene`` adds the bare 640x480 cost per frame
+at the default video quality (medium) of other scene files (e.g. an older commit's
+``scenes/kr210_cell.xml`` with its meshes: ``git archive REV scenes assets | tar -x -C
+/tmp/old``) next to the committed one's, rendering the same states.
 """
 
 from __future__ import annotations
