@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 EXTRAS ?= test,gym
 STAMP := $(VENV)/.installed-$(EXTRAS)
 
-.PHONY: run test lint bench scene video evaluate clean
+.PHONY: run test lint bench scene video evaluate docs clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -32,6 +32,10 @@ bench: $(STAMP)
 scene: $(STAMP)
 	$(PY) -m kr210_sim build-meshes
 	$(PY) -m kr210_sim build-scene
+
+docs: $(STAMP)
+	$(PY) -m kr210_sim.pictures
+	$(PY) -m kr210_sim snapshot --camera overview --out docs/cell.png
 
 video: $(STAMP)
 	$(PY) -m kr210_sim run --cycles 10 --video videos/run.mp4

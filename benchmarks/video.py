@@ -1,11 +1,14 @@
 """Video export cost: the bare renderer against the whole pipeline, for the same frames.
 
-Run: ``python benchmarks/video.py [--frames N]``. Prints figures only. The states are taken from
-one simulated cycle (sampled at 30 fps); "bare" renders each state from the overview camera and
-discards it; "pipeline" is :class:`kr210_sim.video.FrameRecorder`: render, hand over to the writer
-thread, draw the overlay, pipe to ffmpeg (libx264) and finish the file. Both are timed in the
-same process, so their ratio is meaningful on a noisy shared machine even when the absolute
-figures are not.
+Run: ``python benchmarks/video.py [--frames N] [--scene OLD.xml ...]``. Prints figures only. The
+states are taken from one simulated cycle (sampled at 30 fps); "bare" renders each state from
+the overview camera and discards it; "pipeline" is :class:`kr210_sim.video.FrameRecorder`:
+render, hand over to the writer thread, draw the overlay, pipe to ffmpeg (libx264) and finish
+the file. Both are timed in the same process, so their ratio is meaningful on a noisy shared
+machine even when the absolute figures are not. ``--scene`` adds the bare 640x480 cost per frame
+at the default video quality (medium) of other scene files (e.g. an older commit's
+``scenes/kr210_cell.xml`` with its meshes: ``git archive REV scenes assets | tar -x -C
+/tmp/old``) next to the committed one's, rendering the same states.
 """
 
 from __future__ import annotations
@@ -72,12 +75,46 @@ def pipeline(
     return dt / len(snaps)
 
 
+def compare(paths: list[str], snaps: list[mujoco.MjData], rounds: int = 5) -> None:
+    """Bare 640x480 medium-quality cost per frame of each scene file, the committed one first;
+    the scenes take turns for ``rounds`` rounds and the fastest round of each counts (a shared
+    machine's load comes and goes)."""
+    from kr210_sim.scene import load_model
+
+    shadows, shadow_size, msaa = QUALITY["medium"]
+    scenes = []
+    for path in [None, *paths]:
+        model = load_model(path)
+        model.vis.quality.shadowsize = shadow_size
+        model.vis.quality.offsamples = msaa
+        moved = []
+        for d in snaps:
+            m = mujoco.MjData(model)
+            m.qpos[:] = d.qpos
+            mujoco.mj_forward(model, m)
+            moved.append(m)
+        scenes.append((path or "committed scene", model, moved))
+    best = [float("inf")] * len(scenes)
+    for _ in range(rounds):
+        for i, (_, model, moved) in enumerate(scenes):
+            best[i] = min(best[i], bare(model, moved, 640, 480, shadows) * 1e3)
+    print(f"scene comparison: 640x480, medium (default video quality), bare, best of {rounds}")
+    for (label, _, _), ms in zip(scenes, best, strict=True):
+        print(f"  {ms:6.1f} ms/frame  {ms / best[0]:5.2f}x  {label}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=120, help="frames per measurement (120)")
+    parser.add_argument(
+        "--scene", action="append", default=[], help="another scene file to compare (repeat)"
+    )
     args = parser.parse_args()
     runner, snaps = states(args.frames)
     model = runner.model
+    if args.scene:
+        compare(args.scene, snaps)
+        return
     print(f"{args.frames} frames from one cycle, overview camera, libx264")
     print("(x264 preset: fast = ultrafast, medium = veryfast)")
     print(f"{'size':>9} {'quality':>20} {'bare ms':>8} {'pipeline ms':>12} {'ratio':>6}")

@@ -123,7 +123,8 @@ class CellConfig:
         bin: The drop bin.
         slots: Cylinder centre of each spawn slot (1-based numbering = index + 1) in [m].
         n_targets: Number of target cylinders in the scene (one fresh one per cycle).
-        park_origin: Where the first spare cylinder waits (on the floor, out of reach) in [m].
+        park_origin: Where the first spare cylinder waits (on the floor, out of reach and out of
+            every fixed camera's shot) in [m].
         park_spacing: Spacing between parked cylinders along y in [m].
     """
 
@@ -132,7 +133,7 @@ class CellConfig:
     bin: BinSpec = field(default_factory=BinSpec)
     slots: tuple[tuple[float, float, float], ...] = DEFAULT_SLOTS
     n_targets: int = 10
-    park_origin: tuple[float, float] = (-2.0, -2.0)
+    park_origin: tuple[float, float] = (-3.2, -4.2)
     park_spacing: float = 0.3
 
     def __post_init__(self) -> None:

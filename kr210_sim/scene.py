@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from kr210_sim import dressing
 from kr210_sim.config import CellConfig
 from kr210_sim.errors import ConfigError, SceneError
 from kr210_sim.outputs import check_folder, write_bytes_atomic
@@ -230,68 +231,37 @@ def _add_actuators(spec: mujoco.MjSpec, inertia: npt.NDArray[np.float64]) -> Non
 
 
 def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
-    """Floor, sky, lights and the two fixed cameras."""
-    spec.add_texture(
-        name="skybox",
-        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=[0.55, 0.68, 0.82],
-        rgb2=[0.1, 0.12, 0.16],
-        width=512,
-        height=3072,
-    )
-    spec.add_texture(
-        name="floor",
-        type=mujoco.mjtTexture.mjTEXTURE_2D,
-        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-        rgb1=[0.34, 0.35, 0.37],
-        rgb2=[0.28, 0.29, 0.31],
-        mark=mujoco.mjtMark.mjMARK_EDGE,
-        markrgb=[0.45, 0.45, 0.47],
-        width=512,
-        height=512,
-    )
-    floor_mat = spec.add_material(name="floor", texrepeat=[8, 8], reflectance=0.0)
-    floor_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor"
+    """Floor, sky, lights and the fixed cameras (the look: :mod:`kr210_sim.dressing`)."""
     world = spec.worldbody
     floor = world.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )
     floor.classname = static
-    world.add_light(
-        name="sun",
-        pos=[0.5, 1.0, 6.0],
-        dir=[-0.1, -0.2, -1.0],
-        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
-        diffuse=[0.75, 0.75, 0.72],
-        specular=[0.2, 0.2, 0.2],
-        castshadow=True,
-    )
-    world.add_light(
-        name="fill",
-        pos=[-3.0, -3.0, 4.0],
-        dir=[0.5, 0.5, -0.6],
-        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
-        diffuse=[0.3, 0.3, 0.32],
-        castshadow=False,
-    )
-    overview_pos, overview_at = (-1.6, -2.5, 2.9), (1.2, 0.9, 1.0)
+    # The whole cell, from high enough to look over the bin cage's rim into it.
+    overview_pos, overview_at = (-1.6, -2.2, 3.4), (1.35, 1.0, 0.95)
     world.add_camera(
         name="overview",
         pos=list(overview_pos),
         xyaxes=list(_look_at(overview_pos, overview_at)),
-        fovy=58,
+        fovy=56,
     )
     shelf_at = (cell.shelf.x_front + 0.1, 0.0, 1.6)
-    shelf_pos = (0.3, -1.9, 2.4)
+    shelf_pos = (0.5, -1.6, 2.3)
     world.add_camera(
-        name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=60
+        name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=62
     )
     bin_x, bin_y = cell.bin.center_xy
     # Steep enough (about 70 deg down) to see the bin's floor over its 1 m walls.
     bin_pos = (bin_x - 0.55, bin_y + 0.75, 3.3)
     world.add_camera(
         name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.1))), fovy=45
+    )
+    # Three-quarter view of the middle shelf bay: the wrist, the gripper and the grasp large.
+    slot = cell.slot(5)
+    hero_at = (slot[0] - 0.3, slot[1] + 0.05, slot[2] - 0.08)
+    hero_pos = (slot[0] - 0.95, slot[1] - 1.0, slot[2] + 0.45)
+    world.add_camera(
+        name="hero", pos=list(hero_pos), xyaxes=list(_look_at(hero_pos, hero_at)), fovy=45
     )
 
 
@@ -389,6 +359,50 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
         )
 
 
+def _dress(
+    spec: mujoco.MjSpec, cell: CellConfig, visual: mujoco.MjsDefault, mesh_dir: Path | str
+) -> None:
+    """The look of robot and cell (visual-only geoms, materials, lights): see
+    :mod:`kr210_sim.dressing`."""
+    s, b = cell.shelf, cell.bin
+    dressing.add_materials(spec)
+    dressing.dress_robot(spec, visual, mesh_dir)
+    dressing.dress_floor(
+        spec,
+        visual,
+        robot_xy=(0.0, 0.0),
+        plate_half=0.6,
+        marked=(-1.3, -1.6, s.x_front + s.depth + 0.25, b.center_xy[1] + b.outer_size / 2 + 0.4),
+        hall=(-6.0, -6.0, 6.5, 6.0),
+    )
+    shelf = spec.body("shelf")
+    dressing.hide(shelf)
+    dressing.dress_shelf(
+        spec,
+        shelf,
+        visual,
+        x_front=s.x_front,
+        depth=s.depth,
+        half_width=s.half_width,
+        height=s.height,
+        board_tops=s.board_tops,
+        board_thickness=s.board_thickness,
+        upright_y=[
+            sign * (inner + outer) / 2.0
+            for sign, (inner, outer) in (
+                (-1, s.post_y),
+                (-1, s.divider_y),
+                (1, s.divider_y),
+                (1, s.post_y),
+            )
+        ],
+    )
+    bin_body = spec.body("bin")
+    dressing.hide(bin_body)
+    dressing.dress_bin(spec, bin_body, visual, b.center_xy, b.outer_size, b.height, b.floor_top)
+    dressing.add_lights(spec, center=(1.0, 1.0, 1.0))
+
+
 def build_spec(
     cell: CellConfig | None = None,
     urdf_path: Path | str = URDF_PATH,
@@ -426,11 +440,6 @@ def build_spec(
     spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_SIZE
     spec.visual.quality.shadowsize = 4096
-    # The sun's shadow map covers 0.4 x extent around the centre: the robot and the bin at a
-    # texel size that avoids the speckled shadow acne a full-extent map gives at 1024 px.
-    spec.visual.map.shadowclip = 0.4
-    spec.visual.headlight.ambient = [0.25, 0.25, 0.25]
-    spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]
     spec.stat.center = [1.0, 0.6, 1.2]
     spec.stat.extent = 4.0
 
@@ -447,6 +456,7 @@ def build_spec(
     _add_shelf(spec, cell, static)
     _add_bin(spec, cell, static)
     _add_targets(spec, cell)
+    _dress(spec, cell, visual, mesh_dir)
     # Contact sensors: how many contacts the moving robot (link_1's subtree) has with the shelf
     # and with the bin, read by the control loop every tick.
     for env in ("shelf", "bin"):

@@ -1,4 +1,4 @@
-"""Procedural meshes: deterministic, present, and matching the collision geometry."""
+"""Procedural meshes: deterministic, committed, closed, small, and inside the published boxes."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from kr210_sim.meshes import BUILDERS, build_meshes
+from kr210_sim.meshes import BUILDERS, MAIN_FINISH, build_meshes, build_parts, mesh_file
 from kr210_sim.paths import MESH_DIR
 
 
@@ -17,17 +17,40 @@ def test_build_is_byte_identical_and_committed_files_are_current(tmp_path: Path)
     for pa, pb in zip(a, b, strict=True):
         assert pa.read_bytes() == pb.read_bytes()
         assert (MESH_DIR / pa.name).read_bytes() == pa.read_bytes(), "run build-meshes"
+    assert sorted(p.name for p in a) == sorted(p.name for p in MESH_DIR.glob("*.stl"))
 
 
-def test_every_link_has_a_sound_mesh() -> None:
+def test_every_mesh_file_is_a_closed_solid_within_budget() -> None:
+    total = 0
+    for path in sorted(MESH_DIR.glob("*.stl")):
+        mesh = trimesh.load(path)
+        assert mesh.is_watertight, path.name
+        assert mesh.is_winding_consistent and mesh.volume > 0, path.name
+        assert 10 < len(mesh.faces) < 10_000, path.name
+        total += path.stat().st_size
+    assert total < 5_000_000
+
+
+def test_each_link_has_its_urdf_visual_as_the_main_finish() -> None:
     for link in BUILDERS:
-        mesh = trimesh.load(MESH_DIR / f"{link}.stl")
-        assert len(mesh.faces) > 10 and mesh.area > 0
-        assert len(mesh.faces) < 10_000
+        parts = build_parts(link)
+        assert next(iter(parts)) == MAIN_FINISH[link]
+        assert mesh_file(link, MAIN_FINISH[link]) == f"{link}.stl"
+        assert (MESH_DIR / f"{link}.stl").is_file()
+    assert set(build_parts("link_1")) >= {"orange", "black", "steel"}  # motors, counterbalance
 
 
-def test_palm_and_fingers_match_their_published_boxes() -> None:
-    palm = trimesh.load(MESH_DIR / "gripper_link.stl").bounds
-    assert np.allclose(palm, [[-0.075, -0.1, -0.05], [0.075, 0.1, 0.05]], atol=1e-6)
+def test_gripper_body_and_jaws_stay_in_their_published_boxes() -> None:
+    body = build_parts("gripper_link")
+    lo, hi = (
+        np.vstack([body["alu"].bounds, body["dark"].bounds]).min(0),
+        np.vstack([body["alu"].bounds, body["dark"].bounds]).max(0),
+    )
+    assert np.all(lo >= [-0.075 - 1e-9, -0.1 - 1e-9, -0.05 - 1e-9])
+    assert np.all(hi <= [0.075 + 1e-9, 0.1 + 1e-9, 0.05 + 1e-9])
     finger = trimesh.load(MESH_DIR / "right_gripper_finger_link.stl").bounds
-    assert np.allclose(finger, [[-0.075, -0.013, -0.025], [0.075, 0.013, 0.025]], atol=1e-6)
+    jaw = trimesh.load(MESH_DIR / "right_gripper_finger_link__dark.stl").bounds
+    both = np.vstack([finger, jaw])
+    assert np.allclose(
+        [both.min(0), both.max(0)], [[-0.075, -0.013, -0.025], [0.075, 0.013, 0.025]], atol=1e-3
+    )

@@ -276,7 +276,7 @@ def test_unknown_camera_lists_the_cameras(capsys: pytest.CaptureFixture[str]) ->
     assert main(["view", "--web", "--camera", "ceiling", "--cycles", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == (
-        "kr210_sim: error: no camera 'ceiling'; cameras: overview, shelf, bin, gripper"
+        "kr210_sim: error: no camera 'ceiling'; cameras: overview, shelf, bin, hero, gripper"
     ), err
 
 
@@ -294,9 +294,9 @@ def orange_mask(img: npt.NDArray[np.int_]) -> npt.NDArray[np.bool_]:
 
 
 def shelf_mask(img: npt.NDArray[np.int_]) -> npt.NDArray[np.bool_]:
-    """The shelf's wood brown, lit or in shade."""
+    """The racking's navy uprights, lit or in shade (the lit targets are a brighter blue)."""
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
-    return (r > 55) & (r < 210) & (r - g > 12) & (r - g < 60) & (g - b > 15) & (b < 120)
+    return (b - r > 50) & (b < 170) & (r < 70) & (g < 110)
 
 
 def decode(png: bytes) -> npt.NDArray[np.int_]:
@@ -349,7 +349,7 @@ def test_browser_shows_the_whole_cell_with_the_arm_moving(
         orange, shelf = orange_mask(img).mean(), shelf_mask(img).mean()
         assert img.std() > 20  # not blank
         assert 0.005 < orange < 0.3, orange  # the arm, seen from outside its base
-        assert shelf > 0.03, shelf
+        assert shelf > 0.02, shelf  # 0.054 in a 640 x 480 still from the overview camera
     a, b = orange_mask(first), orange_mask(second)
     assert (a ^ b).sum() > 0.1 * min(a.sum(), b.sum())  # the arm moved
 

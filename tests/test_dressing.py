@@ -1,0 +1,118 @@
+"""The cell's look is visual only, the collision geometry is kept, and the cameras see right."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from kr210_sim.config import CellConfig
+from kr210_sim.render import make_renderer, render_frame
+from kr210_sim.robot import ARM_LINKS
+from kr210_sim.scene import CellHandles, load_model
+
+#: Published link masses [kg] (the dressing must not add any).
+MASSES = {
+    "base_link": 150.0,
+    "link_1": 138.0,
+    "link_2": 95.0,
+    "link_3": 71.0,
+    "link_4": 17.0,
+    "link_5": 7.0,
+    "link_6": 0.5,
+    "gripper_link": 0.3,
+}
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return load_model()
+
+
+def test_every_drawn_only_geom_is_massless_and_collides_with_nothing(
+    model: mujoco.MjModel,
+) -> None:
+    visual = [g for g in range(model.ngeom) if model.geom_group[g] == 2]
+    names = {model.geom(g).name for g in visual}
+    assert {"rack_0", "cage_0", "cage_panel_0_p", "floor_plate", "link_1_visual_black"} <= names
+    for g in visual:
+        assert model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0, model.geom(g).name
+    for name, mass in MASSES.items():
+        assert model.body(name).mass[0] == pytest.approx(mass, rel=1e-9)
+    assert set(MASSES) == set(ARM_LINKS)
+
+
+def test_shelf_and_bin_keep_their_collision_boxes_hidden_under_the_dressing(
+    model: mujoco.MjModel,
+) -> None:
+    h = CellHandles.from_model(model)
+    colliding = {
+        body: sorted(
+            model.geom(g).name
+            for g in (h.shelf_geoms if body == "shelf" else h.bin_geoms)
+            if model.geom_contype[g]
+        )
+        for body in ("shelf", "bin")
+    }
+    assert len(colliding["shelf"]) == 9 and "shelf_board_2" in colliding["shelf"]
+    assert colliding["bin"] == sorted(
+        ["bin_floor", "bin_wall_px", "bin_wall_nx", "bin_wall_py", "bin_wall_ny"]
+    )
+    for g in h.shelf_geoms | h.bin_geoms:
+        if model.geom_contype[g]:
+            assert model.geom_group[g] == 3  # not drawn: the racking and the cage are
+    # the cage's mesh walls are see-through
+    panels = [g for g in h.bin_geoms if model.geom(g).name.startswith("cage_panel")]
+    assert len(panels) == 4 and all(model.geom_rgba[g, 3] < 0.5 for g in panels)
+
+
+def _in_view(model: mujoco.MjModel, data: mujoco.MjData, cam: int, p: np.ndarray) -> bool:
+    """Whether point ``p`` [m] is inside camera ``cam``'s 4:3 image."""
+    rel = data.cam_xmat[cam].reshape(3, 3).T @ (p - data.cam_xpos[cam])
+    if rel[2] >= 0:  # behind the camera (it looks along -z)
+        return False
+    t = math.tan(math.radians(model.cam_fovy[cam]) / 2)
+    return abs(rel[1] / -rel[2]) < t and abs(rel[0] / -rel[2]) < t * 4 / 3
+
+
+def test_spare_cylinders_park_out_of_every_fixed_camera(model: mujoco.MjModel) -> None:
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    cell = CellConfig()
+    names = [model.camera(i).name for i in range(model.ncam)]
+    assert {"overview", "shelf", "bin", "gripper", "hero"} <= set(names)
+    for cam, name in enumerate(names):
+        if model.cam_bodyid[cam] != 0:
+            continue  # the gripper camera moves with the arm
+        for k in range(cell.n_targets):
+            p = cell.park_position(k)
+            for dz in (-0.125, 0.125):
+                assert not _in_view(model, data, cam, p + np.array([0.0, 0.0, dz])), (name, k)
+        if name == "overview":
+            assert _in_view(model, data, cam, np.array([*cell.bin.center_xy, 0.5]))
+
+
+def test_a_cylinder_on_the_bin_floor_shows_in_the_overview(model: mujoco.MjModel) -> None:
+    """The drops can be seen from the overview through the cage's mesh walls."""
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    h = CellHandles.from_model(model)
+    cell = CellConfig()
+    a = int(h.target_qpos[0])
+    bx, by = cell.bin.center_xy
+    data.qpos[a : a + 7] = (bx + 0.2, by - 0.2, cell.bin.floor_top + 0.05, 0.7071, 0.7071, 0, 0)
+    mujoco.mj_forward(model, data)
+    renderer = make_renderer(model, 320, 240)
+    try:
+        with_target = render_frame(renderer, data, "overview").astype(int)
+        data.qpos[a : a + 3] = cell.park_position(0)
+        mujoco.mj_forward(model, data)
+        without = render_frame(renderer, data, "overview").astype(int)
+    finally:
+        renderer.close()
+    changed = np.abs(with_target - without).sum(axis=2) > 60
+    blue = with_target[..., 2] - with_target[..., 0] > 60
+    assert (changed & blue).sum() > 20  # 35 px measured; behind opaque walls it would be 0
