@@ -61,8 +61,10 @@ def _cycles(text: str) -> int:
 
 
 def _slot(text: str) -> int:
-    value: int = _parsed(text, int, "0-9")
-    _check(0 <= value <= 9, f"must be 0 (random) or 1-9, got {value}")
+    value: int = _parsed(text, int, "0-25")
+    _check(
+        0 <= value <= 25, f"must be 0 (random) or a slot 1-rows x columns (at most 25), got {value}"
+    )
     return value
 
 
@@ -131,7 +133,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene, ik=ik)
+    job = run_job(
+        config,
+        args.report,
+        video=video,
+        plots_dir=args.plots,
+        scene=args.scene,
+        ik=ik,
+        cell=args.cell,
+    )
     out = sys.stdout
     summary = job.report["summary"]
     out.write(summary_table(summary) + "\n")
@@ -198,7 +208,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args.ik)
-    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik)
+    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
     out = sys.stdout
     summary = result.report["summary"]
     out.write(summary_table(summary) + "\n")
@@ -217,9 +227,9 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from kr210_sim.cells import model_for
     from kr210_sim.evaluate import EvalConfig, evaluate
     from kr210_sim.report import check_writable, write_json_atomic
-    from kr210_sim.scene import load_model
 
     config = EvalConfig(
         episodes=args.episodes,
@@ -227,9 +237,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         randomize=args.randomize,
         workers=args.workers,
         scene=args.scene,
+        cell=args.cell,
     )
     report_path = check_writable(args.report)
-    load_model(args.scene)  # a bad scene fails here, before any worker starts
+    model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
     report, interrupted = evaluate(config)
     write_json_atomic(report_path, report)
     s = report["summary"]
@@ -288,11 +299,23 @@ def _cmd_build_meshes(args: argparse.Namespace) -> int:
 
 
 def _cmd_snapshot(args: argparse.Namespace) -> int:
+    from kr210_sim.cells import model_for
     from kr210_sim.render import snapshot
 
-    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height)
+    model = model_for(None, args.cell) if args.cell is not None else None
+    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height, model=model)
     print(f"wrote {path}")
     return 0
+
+
+def _add_cell_option(cmd: argparse.ArgumentParser) -> None:
+    cmd.add_argument(
+        "--cell",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="cell file (TOML), e.g. scenes/cells/published.toml; compiled instead of --scene",
+    )
 
 
 def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT) -> None:
@@ -318,6 +341,7 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT
         help="pass bar: exit 1 below this success rate (0.8)",
     )
     cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(cmd)
     cmd.add_argument(
         "--ik",
         default=None,
@@ -405,6 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--seed", type=_seed, default=0, help="seed of the episode seeds (0)")
     ev.add_argument("--randomize", action="store_true", help="randomise each episode's target")
     ev.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(ev)
     ev.add_argument(
         "--report",
         type=Path,
@@ -450,6 +475,7 @@ def build_parser() -> argparse.ArgumentParser:
     snap.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
     snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
     snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
+    _add_cell_option(snap)
     snap.set_defaults(func=_cmd_snapshot)
     return parser
 

@@ -43,6 +43,7 @@ class EvalConfig:
         randomize: Randomise each episode's target.
         workers: Local worker processes (does not change the results).
         scene: MJCF scene path, or None for the committed scene.
+        cell: Cell file (TOML) compiled instead of a scene, or None.
     """
 
     episodes: int = 100
@@ -50,6 +51,7 @@ class EvalConfig:
     randomize: bool = False
     workers: int = 1
     scene: Path | None = None
+    cell: Path | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.episodes, int) or self.episodes < 1:
@@ -69,17 +71,17 @@ def episode_seed(seed: int, index: int) -> int:
 _PRISTINE: mujoco.MjModel | None = None
 
 
-def _init_worker(scene: Path | None, in_child: bool = False) -> None:
+def _init_worker(scene: Path | None, in_child: bool = False, cell: Path | None = None) -> None:
     """Load the scene once per process; every episode gets its own copy of it.
 
     Worker processes ignore Ctrl-C: the parent handles it (stops the pool, writes the report).
     """
     global _PRISTINE
-    from kr210_sim.scene import load_model
+    from kr210_sim.cells import model_for
 
     if in_child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _PRISTINE = load_model(scene)
+    _PRISTINE = model_for(scene, cell)
 
 
 def run_episode(seed: int, randomize: bool) -> CycleResult:
@@ -127,14 +129,16 @@ def _episodes(config: EvalConfig) -> Iterator[tuple[int, dict[str, Any]]]:
     """Run the episodes, yielding ``(index, record)`` as they finish (any order)."""
     jobs = [(i, episode_seed(config.seed, i), config.randomize) for i in range(config.episodes)]
     if config.workers == 1:
-        _init_worker(config.scene)
+        _init_worker(config.scene, cell=config.cell)
         for job in jobs:
             yield _episode_task(job)
         return
     # spawn: no state (threads, GL contexts) is inherited from this process.
     ctx = mp.get_context("spawn")
     chunk = max(1, min(8, config.episodes // (8 * config.workers)))
-    with ctx.Pool(config.workers, initializer=_init_worker, initargs=(config.scene, True)) as pool:
+    with ctx.Pool(
+        config.workers, initializer=_init_worker, initargs=(config.scene, True, config.cell)
+    ) as pool:
         try:
             yield from pool.imap_unordered(_episode_task, jobs, chunksize=chunk)
         except BaseException:
@@ -247,9 +251,12 @@ def evaluate(config: EvalConfig, progress: TextIO | None = None) -> tuple[dict[s
             "seed": config.seed,
             "randomize": config.randomize,
             "scene": str(config.scene) if config.scene else None,
-            "randomization": _randomization(),
+            "cell": str(config.cell) if config.cell else None,
+            "randomization": _randomization(config),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
-            + (" --randomize" if config.randomize else ""),
+            + (" --randomize" if config.randomize else "")
+            + (f" --cell {config.cell}" if config.cell else "")
+            + (f" --scene {config.scene}" if config.scene else ""),
         },
         "summary": summarise_episodes(records),
         "episodes": records,
@@ -260,11 +267,12 @@ def evaluate(config: EvalConfig, progress: TextIO | None = None) -> tuple[dict[s
     return report, interrupted
 
 
-def _randomization() -> dict[str, Any]:
+def _randomization(config: EvalConfig) -> dict[str, Any]:
+    """The randomisation ranges of the evaluated cell (as its model holds them)."""
     from dataclasses import asdict
 
-    from kr210_sim.config import RandomizationSpec
+    from kr210_sim.cells import model_for
+    from kr210_sim.layout import CellLayout
 
-    return {
-        k: list(v) if isinstance(v, tuple) else v for k, v in asdict(RandomizationSpec()).items()
-    }
+    r = CellLayout.from_model(model_for(config.scene, config.cell)).randomization
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(r).items()}

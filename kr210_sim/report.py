@@ -119,6 +119,7 @@ def build_report(
     wall_time: float | None,
     interrupted: BaseException | bool | None = None,
     events: Sequence[Event] = (),
+    cell: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The JSON-ready report of a run.
 
@@ -129,14 +130,16 @@ def build_report(
         interrupted: The interrupt that stopped the run (or True), None/False when it ran to
             the end.
         events: What was done to the cylinders between cycles (bin emptied, shelf cleared).
+        cell: The simulated cell (:meth:`kr210_sim.layout.CellLayout.describe`).
 
     Returns:
-        config, per-cycle records, events, summary, ``interrupted`` (bool) and
+        config, the cell, per-cycle records, events, summary, ``interrupted`` (bool) and
         ``interrupted_by`` (the signal's name or null), versions.
     """
     return {
         "kind": "kr210_sim.run",
         "config": _jsonable(config),
+        "cell": _jsonable(cell),
         "cycles": [_jsonable(r.to_dict()) for r in results],
         "events": [e.to_dict() for e in events],
         "summary": summarise(results, wall_time),

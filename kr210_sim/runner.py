@@ -16,10 +16,11 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import kinematics
-from kr210_sim.config import CellConfig, MotionConfig, RandomizationSpec, TargetSpec
+from kr210_sim.config import MotionConfig, TargetSpec
 from kr210_sim.control import Cell, Recording, hold
 from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
 from kr210_sim.ik_plugin import UserIk
+from kr210_sim.layout import CellLayout
 from kr210_sim.metrics import gripper_tracking_error_mm
 from kr210_sim.robot import RobotDescription, load_robot
 from kr210_sim.scene import load_model
@@ -65,12 +66,13 @@ class RunConfig:
     Attributes:
         cycles: Number of pick-and-place cycles.
         seed: Seed of the run's random generator.
-        slot: Slot 1-9, or 0 for a random slot per cycle.
+        slot: Slot 1..rows x columns of the cell, or 0 for a random slot per cycle.
         randomize: Randomise the target per cycle (see :class:`RandomizationSpec`).
         grasp_attempts: Attempts at a grasp before the cycle is scored ``grasp_missed``.
-        cell: The cell layout.
         motion: Motion settings.
-        randomization: Randomisation ranges.
+
+    The cell (layout, target, randomisation ranges) is the simulated model's
+    (:class:`~kr210_sim.layout.CellLayout`), not a setting.
     """
 
     cycles: int = 10
@@ -78,9 +80,7 @@ class RunConfig:
     slot: int = 0
     randomize: bool = False
     grasp_attempts: int = 2
-    cell: CellConfig = field(default_factory=CellConfig)
     motion: MotionConfig = field(default_factory=MotionConfig)
-    randomization: RandomizationSpec = field(default_factory=RandomizationSpec)
 
     def __post_init__(self) -> None:
         if not isinstance(self.cycles, int) or not 1 <= self.cycles <= MAX_CYCLES:
@@ -88,8 +88,8 @@ class RunConfig:
                 f"cycles must be a whole number from 1 to {MAX_CYCLES}, got {self.cycles!r} "
                 "(use evaluate for more)"
             )
-        if not isinstance(self.slot, int) or not 0 <= self.slot <= 9:
-            raise ConfigError(f"slot must be 0 (random) or 1-9, got {self.slot!r}")
+        if not isinstance(self.slot, int) or self.slot < 0:
+            raise ConfigError(f"slot must be 0 (random) or a slot number, got {self.slot!r}")
         if self.grasp_attempts < 1:
             raise ConfigError(f"grasp_attempts must be >= 1, got {self.grasp_attempts!r}")
 
@@ -99,7 +99,7 @@ class TargetSample:
     """One cycle's target: where it spawns and what it is.
 
     Attributes:
-        slot: Slot number 1-9.
+        slot: Slot number (1-based).
         position: Spawn position of the centre [m].
         yaw: Spawn yaw [rad].
         spec: Size, mass and friction.
@@ -161,17 +161,18 @@ class CycleResult:
         return d
 
 
-def sample_target(rng: np.random.Generator, config: RunConfig, cycle_slot: int) -> TargetSample:
+def sample_target(
+    rng: np.random.Generator, config: RunConfig, layout: CellLayout, cycle_slot: int
+) -> TargetSample:
     """Draw one cycle's target from the run's generator.
 
     The nominal target sits upright on its board at the slot centre; with ``randomize`` its
-    position, yaw, size, mass and friction are drawn from :class:`RandomizationSpec`.
+    position, yaw, size, mass and friction are drawn from the cell's randomisation ranges.
     """
-    cell, r = config.cell, config.randomization
-    centre = cell.slot(cycle_slot)
-    row = (cycle_slot - 1) // 3
-    board_top = cell.shelf.board_tops[row]
-    spec = cell.target
+    r = layout.randomization
+    centre = layout.slots[cycle_slot - 1]
+    board_top = float(centre[2])
+    spec = layout.target
     yaw = 0.0
     offset = np.zeros(2)
     if config.randomize:
@@ -216,7 +217,13 @@ class Runner:
         self.config = config
         self.robot = robot or load_robot()
         self.model = model if model is not None else load_model()
-        self.cell = Cell(self.model, config.cell)
+        self.layout = CellLayout.from_model(self.model)
+        if config.slot > self.layout.n_slots:
+            raise ConfigError(
+                f"slot must be 0 (random) or 1-{self.layout.n_slots} in cell "
+                f"{self.layout.name!r}, got {config.slot}"
+            )
+        self.cell = Cell(self.model)
         self.planner = Planner(self.robot, config.motion, ik)
         self.planner.check_ready()
         self.rng = np.random.default_rng(config.seed)
@@ -225,7 +232,7 @@ class Runner:
         self.results: list[CycleResult] = []
         self.keep_recordings = keep_recordings
         self.recordings: list[Recording] = []
-        self.targets = TargetPool(self.cell, config.cell)
+        self.targets = TargetPool(self.cell, self.layout)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -319,11 +326,11 @@ class Runner:
 
         Args:
             index: Cycle number (1-based).
-            slot: Slot 1-9.
+            slot: Slot number (1-based).
         """
         wall0 = time.perf_counter()
         cfg, cell = self.config, self.cell
-        sample = sample_target(self.rng, cfg, slot)
+        sample = sample_target(self.rng, cfg, self.layout, slot)
         self.status.update(cycle=index, slot=slot, phase="spawn")
         k = self._spawn(sample)
         rec = Recording()
@@ -371,10 +378,9 @@ class Runner:
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
-                spots = cfg.motion.drop_spots  # in turn, from the first after the bin is emptied
-                dx, dy = spots[(len(self.targets.in_play) - 1) % len(spots)]
-                bx, by = cfg.cell.bin.center_xy
-                carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy), sample.spec.radius)
+                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
+                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
+                carry = self.planner.plan_carry(self.q_cmd, drop, sample.spec.radius)
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
@@ -419,11 +425,11 @@ class Runner:
             target_toppled=toppled
             or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
-        outcome = Outcome.IK_FAILED if ik_failed else score(obs, cfg.cell.bin)
+        outcome = Outcome.IK_FAILED if ik_failed else score(obs, self.layout.bin)
         if outcome is Outcome.SUCCESS:
             detail = ""
         elif not detail:
-            detail = _describe(outcome, obs, rec, cfg.cell)
+            detail = _describe(outcome, obs, rec, self.layout)
         result = self._summarise(
             index,
             sample,
@@ -451,8 +457,11 @@ class Runner:
         """Take a target left on the shelf after failed cycle ``index`` off it (an event), so the
         slot is free again."""
         pos, _ = self.cell.target_pose(k)
-        s = self.config.cell.shelf
-        if pos[0] > s.x_front - 0.2 and pos[2] > s.board_tops[0] - 0.1:
+        local = self.layout.shelf.local(pos)
+        half = self.layout.shelf.half
+        bottom = float(self.layout.slots[:, 2].min())
+        near = abs(local[0]) < half[0] + 0.2 and abs(local[1]) < half[1] + 0.2
+        if near and pos[2] > bottom - 0.1:
             self._show(self.targets.clear(k, index + 1, f"left there by failed cycle {index}"))
 
     def _summarise(
@@ -508,10 +517,10 @@ class Runner:
         """The slot of the next cycle: fixed, or drawn from the run's generator."""
         if self.config.slot:
             return self.config.slot
-        return int(self.rng.integers(1, 10))
+        return int(self.rng.integers(1, self.layout.n_slots + 1))
 
 
-def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellConfig) -> str:
+def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellLayout) -> str:
     """One sentence on why a cycle failed."""
     p = np.round(obs.target_position, 3).tolist()
     if outcome is Outcome.COLLISION:
