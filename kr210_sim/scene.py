@@ -124,11 +124,38 @@ def _box(
         rgba=list(rgba),
     )
     geom.classname = cls
+    # a class set after creation does not reapply its defaults
+    geom.conaffinity, geom.group = cls.geom.conaffinity, cls.geom.group
     return geom
 
 
+def _add_hulls(body: mujoco.MjsBody, hull: mujoco.MjsDefault) -> None:
+    """One collider per visual mesh of ``body``: the mesh itself, whose convex hull MuJoCo
+    collides with, so it encloses every visual vertex whatever the meshes look like.
+
+    Hulls are in class ``hull`` (contype 2, conaffinity 0): they touch only geoms with bit 2 in
+    their conaffinity, the cell's parts (class ``static``), never the targets, the other links
+    or the primitive colliders, so the grasp's contacts stay those of the fingers' pads and lips.
+    """
+    for geom in list(body.geoms):
+        if geom.type != mujoco.mjtGeom.mjGEOM_MESH or geom.contype != 0:
+            continue
+        h = body.add_geom(
+            name=geom.name.replace("_visual", "_hull"),
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=geom.meshname,
+            pos=list(geom.pos),
+            quat=list(geom.quat),
+        )
+        h.classname = hull
+        h.contype, h.conaffinity, h.group, h.density = 2, 0, 3, 0.0
+
+
 def _configure_robot(
-    spec: mujoco.MjSpec, visual: mujoco.MjsDefault, collision: mujoco.MjsDefault
+    spec: mujoco.MjSpec,
+    visual: mujoco.MjsDefault,
+    collision: mujoco.MjsDefault,
+    hull: mujoco.MjsDefault,
 ) -> None:
     """Classes, gravity compensation, armature, damping, sites and camera for the URDF robot."""
     for body_name in (*ARM_LINKS[1:], *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
@@ -138,7 +165,7 @@ def _configure_robot(
         body.gravcomp = 1.0
     for body_name in (*ARM_LINKS, *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
         body = spec.body(body_name)
-        for i, geom in enumerate(body.geoms):
+        for i, geom in enumerate(list(body.geoms)):
             if geom.contype == 0:  # URDF <visual>: the importer already made it non-colliding
                 geom.classname = visual
                 geom.contype, geom.conaffinity, geom.group = 0, 0, 2
@@ -147,6 +174,7 @@ def _configure_robot(
                 geom.classname = collision
                 geom.contype, geom.conaffinity, geom.group = 1, 1, 3
                 geom.name = f"{body_name}_collision{i}"
+        _add_hulls(body, hull)
     for name, armature, damping in zip(ARM_JOINTS, ARMATURE, JOINT_DAMPING, strict=True):
         joint = spec.joint(name)
         joint.armature = armature
@@ -266,6 +294,9 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )
     floor.classname = static
+    # Not bit 2: hull/plane tests cost about a fifth of the step rate; the primitive colliders
+    # still touch the floor (and the planner checks the hulls against it, kinematically).
+    floor.conaffinity = 1
     world.add_light(
         name="sun",
         pos=[0.5, 1.0, 6.0],
@@ -540,10 +571,13 @@ def build_spec(
     visual.geom.density = 0
     collision = spec.add_default("collision", spec.default)
     collision.geom.group = 3
+    hull = spec.add_default("hull", spec.default)
+    hull.geom.contype, hull.geom.conaffinity, hull.geom.group = 2, 0, 3
     static = spec.add_default("static", spec.default)
     static.geom.group = 0
+    static.geom.conaffinity = 3  # bit 2: the robot's hull colliders touch the cell's parts
 
-    _configure_robot(spec, visual, collision)
+    _configure_robot(spec, visual, collision, hull)
     _add_world(spec, cell, static)
     _add_shelf(spec, cell.shelf, static)
     _add_bin(spec, cell.bin, static)

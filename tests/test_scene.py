@@ -136,3 +136,35 @@ def test_build_is_deterministic_and_committed_scene_is_current(tmp_path) -> None
 def _meshdir(xml: str) -> str:
     start = xml.index('meshdir="') + len('meshdir="')
     return xml[start : xml.index('"', start)]
+
+
+def test_every_visual_vertex_lies_inside_its_links_colliders(model: mujoco.MjModel) -> None:
+    """Computed from whatever meshes are in assets/: each link's hull collider is its mesh."""
+    from kr210_sim.colliders import stick_out
+
+    worst = stick_out(model)
+    assert set(worst) >= {
+        "link_1",
+        "link_2",
+        "link_3",
+        "link_4",
+        "link_5",
+        "link_6",
+        "gripper_link",
+    }
+    assert max(worst.values()) <= 0.005, worst
+    # the URDF's primitives alone left the forearm tube of link 3 outside (the issue's finding)
+    assert stick_out(model, with_hulls=False)["link_3"] > 0.4
+
+
+def test_hull_colliders_touch_the_cell_but_not_the_targets(model: mujoco.MjModel) -> None:
+    hull = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "link_3_hull")
+    board = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "shelf_board_1")
+    target = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "target_0")
+
+    def pairs(a: int, b: int) -> bool:
+        ct, ca = model.geom_contype, model.geom_conaffinity
+        return bool((ct[a] & ca[b]) or (ct[b] & ca[a]))
+
+    assert pairs(hull, board) and not pairs(hull, target)
+    assert pairs(target, board)
