@@ -268,6 +268,15 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0 if passed else 1
 
 
+def _cmd_check(args: argparse.Namespace) -> int:
+    from kr210_sim.cellcheck import check_cell
+    from kr210_sim.cells import model_for
+
+    result = check_cell(model_for(args.scene, args.cell))
+    sys.stdout.write(result.table() + "\n")
+    return 0 if result.ok else 1
+
+
 def _cmd_ik_check(args: argparse.Namespace) -> int:
     from kr210_sim.ik_plugin import load_ik
     from kr210_sim.ikcheck import run_check
@@ -441,6 +450,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ev.set_defaults(func=_cmd_evaluate)
 
+    chk = sub.add_parser("check", help="can every slot and drop spot of a cell be served?")
+    chk.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(chk)
+    chk.set_defaults(func=_cmd_check)
+
     ikc = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
     ikc.add_argument(
         "--ik",
@@ -512,6 +526,9 @@ def _main(argv: list[str] | None) -> int:
     try:
         return int(args.func(args))
     except Kr210SimError as exc:
+        table = getattr(exc, "table", None)
+        if table:
+            sys.stderr.write(table + "\n")
         sys.stderr.write(f"kr210_sim: error: {exc}\n")
         return 2
     except KeyboardInterrupt as exc:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kr210_sim.cells import model_for
-from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.errors import ConfigError, RenderError, UnservableCellError
 from kr210_sim.ik_plugin import UserIk
 from kr210_sim.interrupts import signal_name
 from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
@@ -27,6 +27,8 @@ from kr210_sim.plots import PLOT_NAMES
 from kr210_sim.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
+
+import mujoco  # isort: skip
 
 
 @dataclass
@@ -85,6 +87,21 @@ def check_outputs(
     check_distinct(outputs, inputs)
 
 
+def refuse_unservable(model: mujoco.MjModel) -> None:
+    """Refuse a cell (another than the committed one) none of whose slots can be served.
+
+    Raises:
+        UnservableCellError: With the check's table (see :mod:`kr210_sim.cellcheck`).
+    """
+    from kr210_sim.cellcheck import check_cell
+
+    result = check_cell(model)
+    if not result.any_slot:
+        raise UnservableCellError(
+            f"cell {result.name}: no slot can be served (see the table above)", result.table()
+        )
+
+
 def run_job(
     config: RunConfig,
     report_path: Path,
@@ -123,9 +140,12 @@ def run_job(
     out = out or sys.stdout
     check_outputs(report_path, video, plots_dir, scene, ik, cell)
     # Without --scene or --cell the runner loads the committed scene itself, after the URDF.
+    model = model_for(scene, cell) if scene is not None or cell is not None else None
+    if model is not None:
+        refuse_unservable(model)
     runner = Runner(
         config,
-        model=model_for(scene, cell) if scene is not None or cell is not None else None,
+        model=model,
         keep_recordings=plots_dir is not None,
         ik=ik,
     )

@@ -39,7 +39,15 @@ __all__ = [
 #: Keys whose values depend on the machine or on how the work was spread over processes, not on
 #: the simulation (``execution``: worker count and wall time of an evaluation).
 WALL_KEYS = frozenset(
-    {"wall_time", "wall_time_s", "real_time_factor", "steps_per_second", "execution"}
+    {
+        "wall_time",
+        "wall_time_s",
+        "real_time_factor",
+        "steps_per_second",
+        "execution",
+        "planning_wall_time",
+        "planning_wall_time_s",
+    }
 )
 
 
@@ -92,7 +100,11 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         "env_contact_ticks": sum(r.env_contact_ticks for r in results),
         "grasp_retries": sum(max(r.grasp_attempts - 1, 0) for r in results),
         "sim_time": float(times.sum()) if n else 0.0,
+        "detours": sum(r.detours for r in results),
     }
+    if n:
+        plan = np.array([r.planning_wall_time for r in results])
+        summary["planning_wall_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
         summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0

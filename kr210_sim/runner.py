@@ -7,6 +7,7 @@ plan (:mod:`kr210_sim.task`) -> execute (:mod:`kr210_sim.control`) -> monitor ->
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -16,9 +17,16 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import kinematics
+from kr210_sim.collide import CollisionChecker
 from kr210_sim.config import MotionConfig, TargetSpec
 from kr210_sim.control import Cell, Recording, hold
-from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
+from kr210_sim.errors import (
+    ConfigError,
+    IkFailedError,
+    NoPathError,
+    PlanningError,
+    UnreachablePoseError,
+)
 from kr210_sim.ik_plugin import UserIk
 from kr210_sim.layout import CellLayout
 from kr210_sim.metrics import gripper_tracking_error_mm
@@ -134,7 +142,10 @@ class CycleResult:
         target: The target's spawn sample.
         target_final: The target's final centre [m].
         phase_times: Simulated duration of each phase [s].
+        detours: Moves planned through via points to keep clear of the cell.
         wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
+        planning_wall_time: Wall-clock time spent planning the cycle's moves, collision checks
+            and detours included [s] (excluded from determinism checks).
     """
 
     index: int
@@ -152,7 +163,9 @@ class CycleResult:
     target: TargetSample
     target_final: tuple[float, float, float]
     phase_times: dict[str, float]
+    detours: int
     wall_time: float
+    planning_wall_time: float
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready dictionary."""
@@ -224,7 +237,7 @@ class Runner:
                 f"{self.layout.name!r}, got {config.slot}"
             )
         self.cell = Cell(self.model)
-        self.planner = Planner(self.robot, config.motion, ik)
+        self.planner = Planner(self.robot, config.motion, ik, CollisionChecker(self.model))
         self.planner.check_ready()
         self.rng = np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
@@ -338,7 +351,9 @@ class Runner:
         self._hold(SPAWN_SETTLE, rec, "spawn", phases)
         t_start = cell.time
         planned, confirmed, held, released, toppled = True, False, False, False, False
-        ik_failed = False
+        ik_failed = no_path = False
+        planning = 0.0
+        detours0 = self.planner.detours
         attempts = 0
         detail = ""
         grip_ref: FloatArray | None = None
@@ -347,7 +362,15 @@ class Runner:
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
                 position = self.observe_target(k)
-                plan = self.planner.plan_grasp(self.q_cmd, position, sample.spec.radius)
+                # The whole cycle is planned (and collision-checked) before the arm moves.
+                t_plan = time.perf_counter()
+                radius, length = sample.spec.radius, sample.spec.length
+                plan = self.planner.plan_grasp(self.q_cmd, position, radius, length)
+                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
+                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
+                carry = self.planner.plan_carry(plan.retreat.q_end, drop, radius, length)
+                self.planner.plan_return(carry.q_end)
+                planning += time.perf_counter() - t_plan
                 self._track(plan.approach_ptp, rec, phases)
                 self._track(plan.approach_lin, rec, phases)
                 confirmed = self._close(sample.spec.radius, rec, phases)
@@ -378,9 +401,6 @@ class Runner:
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
-                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
-                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
-                carry = self.planner.plan_carry(self.q_cmd, drop, sample.spec.radius)
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
@@ -392,6 +412,7 @@ class Runner:
         except (UnreachablePoseError, PlanningError) as exc:
             planned = False  # scored "unreachable": no plan within the limits exists
             ik_failed = isinstance(exc, IkFailedError)  # scored "ik_failed": the user's IK
+            no_path = isinstance(exc, NoPathError)  # scored "no_path": every plan collides
             detail = str(exc)
             log.info("cycle %d: %s", index, detail)
             if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
@@ -425,7 +446,13 @@ class Runner:
             target_toppled=toppled
             or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
-        outcome = Outcome.IK_FAILED if ik_failed else score(obs, self.layout.bin)
+        outcome = (
+            Outcome.IK_FAILED
+            if ik_failed
+            else Outcome.NO_PATH
+            if no_path
+            else score(obs, self.layout.bin)
+        )
         if outcome is Outcome.SUCCESS:
             detail = ""
         elif not detail:
@@ -444,6 +471,9 @@ class Runner:
             phases,
             wall0,
             obs,
+        )
+        result = dataclasses.replace(
+            result, detours=self.planner.detours - detours0, planning_wall_time=planning
         )
         self.results.append(result)
         if self.keep_recordings:
@@ -505,7 +535,9 @@ class Runner:
             target=sample,
             target_final=tuple(round(float(x), 6) for x in obs.target_position),  # type: ignore[arg-type]
             phase_times={k: round(v, 6) for k, v in phases.items()},
+            detours=0,
             wall_time=time.perf_counter() - wall0,
+            planning_wall_time=0.0,
         )
 
     def idle(self, seconds: float, phase: str = "done") -> None:

@@ -27,6 +27,8 @@ class Outcome(StrEnum):
     MISSED_BIN = "missed_bin"
     #: The user's IK function (``--ik``) gave an unusable answer for a pose the plan needs.
     IK_FAILED = "ik_failed"
+    #: No collision-free plan exists for a move of the cycle (scored before the arm moves).
+    NO_PATH = "no_path"
 
 
 #: Largest linear speed of a target counted as still [m/s].

@@ -87,10 +87,22 @@ def test_release_outside_the_bin_misses_it() -> None:
 
 def test_carrying_through_the_bin_wall_is_a_collision() -> None:
     motion = MotionConfig(drop_height=0.85)
-    _, r = _one(RunConfig(cycles=1, motion=motion))
+    runner = Runner(RunConfig(cycles=1, motion=motion))
+    runner.planner.checker = None  # the contact monitor, not the planner, must see it
+    r = runner.run_cycle(1, 5)
     assert r.reason == "collision", r.detail
     assert r.env_contact_ticks > 0
     assert any("bin" in a or "bin" in b for a, b in r.contact_pairs)
+
+
+def test_a_plan_into_the_bin_wall_is_no_path_before_the_arm_moves() -> None:
+    motion = MotionConfig(drop_height=0.85)
+    runner = Runner(RunConfig(cycles=1, motion=motion))
+    r = runner.run_cycle(1, 5)
+    assert r.reason == "no_path", r.detail
+    assert "bin_wall" in r.detail and "carry move" in r.detail
+    assert r.grasp_attempts == 1 and "approach" not in r.phase_times  # the arm never moved
+    assert r.env_contact_ticks == 0
 
 
 def test_wrong_size_belief_misses_the_grasp() -> None:
