@@ -3,8 +3,16 @@
 The robot comes from MuJoCo's own URDF import of ``assets/kr210/kr210.urdf``; this module adds
 what URDF cannot say (actuators, gravity compensation, armature, the coupled fingers, sites,
 cameras, contact parameters, a ``home`` keyframe) and the cell (floor, shelf, bin, targets,
-lights). :func:`build_scene` writes the result to ``scenes/``; the runtime loads the committed
-file with :func:`load_model`, and a test proves the committed file is current.
+lights) from a cell file's value (:class:`~kr210_sim.config.CellConfig`, see
+:mod:`kr210_sim.cells`). :func:`build_scene` writes the published cell to ``scenes/``; the
+runtime loads the committed file with :func:`load_model`, and a test proves it is current.
+
+Named elements the runtime reads (:mod:`kr210_sim.layout`): bodies ``shelf`` (geoms
+``shelf_board_<row>``, ``shelf_top``, ``shelf_back``, ``shelf_wall_left/right``,
+``shelf_divider_<k>``), ``bin`` (``bin_floor``, ``bin_wall_px/nx/py/ny``), ``obstacles``
+(``obstacle_<i>``), ``target_<k>``; sites ``slot_<n>``, ``shelf_box``, ``bin_inside``,
+``drop_<n>``; custom text ``cell_name``, ``cell_sha256`` and numerics ``randomize_*``; robot
+hull colliders ``<link>_hull`` (class ``hull``).
 
 Choices (see also the README in ``assets/kr210``):
 

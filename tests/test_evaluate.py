@@ -109,3 +109,15 @@ def test_ctrl_c_writes_the_episodes_done_and_exits_130(
     assert [e["episode"] for e in data["episodes"]] == [0, 1]
     assert data["summary"]["episodes"] == 2
     assert "interrupted after 2 episodes" in capsys.readouterr().err
+
+
+def test_an_evaluation_of_another_cell_runs_in_it_and_says_how_to_replay() -> None:
+    from kr210_sim.cells import PUBLISHED_CELL
+
+    cell = PUBLISHED_CELL.parent / "grid_4x2.toml"
+    report, interrupted = evaluate(EvalConfig(episodes=2, seed=1, cell=cell))
+    assert not interrupted and report["summary"]["successes"] == 2
+    assert report["config"]["cell"] == str(cell)
+    assert report["config"]["replay"].endswith(f"--cell {cell}")
+    assert all(1 <= e["slot"] <= 8 for e in report["episodes"])
+    assert {e["target"]["position"][1] for e in report["episodes"]} <= {0.15, -0.95}
