@@ -47,6 +47,8 @@ WALL_KEYS = frozenset(
         "execution",
         "planning_wall_time",
         "planning_wall_time_s",
+        "planning_cpu_time",
+        "planning_cpu_time_s",
     }
 )
 
@@ -105,6 +107,8 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
     if n:
         plan = np.array([r.planning_wall_time for r in results])
         summary["planning_wall_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
+        cpu = np.array([r.planning_cpu_time for r in results])
+        summary["planning_cpu_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
         summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
