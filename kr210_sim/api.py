@@ -229,6 +229,7 @@ def run(
     report: str | Path | None = None,
     out: TextIO | None = None,
     progress: TextIO | None = None,
+    cell: str | Path | None = None,
 ) -> RunReport:
     """Run and score pick-and-place cycles (``python -m kr210_sim run``).
 
@@ -246,6 +247,7 @@ def run(
         report: Write the JSON report here (atomically), or None to only return it.
         out: Stream for the one-line-per-cycle output (None: logger ``kr210_sim.api``).
         progress: Stream for the video's progress bar (None: stderr).
+        cell: A cell file (TOML) to compile and run instead of a scene (``--cell``).
 
     Returns:
         The run's report; ``to_dict()`` is the JSON ``run --report`` writes.
@@ -283,6 +285,7 @@ def run(
         progress_stream=progress,
         scene=_path(scene, "scene"),
         ik=user_ik,
+        cell=_path(cell, "cell"),
     )
     result = RunReport(
         job.report,

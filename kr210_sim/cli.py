@@ -67,8 +67,10 @@ def _cycles(text: str) -> int:
 
 
 def _slot(text: str) -> int:
-    value: int = _parsed(text, int, "0-9")
-    _check(0 <= value <= 9, f"must be 0 (random) or 1-9, got {value}")
+    value: int = _parsed(text, int, "0-25")
+    _check(
+        0 <= value <= 25, f"must be 0 (random) or a slot 1-rows x columns (at most 25), got {value}"
+    )
     return value
 
 
@@ -146,6 +148,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             video=video,
             plots=args.plots,
             scene=args.scene,
+            cell=args.cell,
             report=args.report,
             out=sys.stdout,
         )
@@ -229,7 +232,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args.ik)
-    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik)
+    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
     out = sys.stdout
     summary = result.report["summary"]
     out.write(summary_table(summary) + "\n")
@@ -248,9 +251,9 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from kr210_sim.cells import model_for
     from kr210_sim.evaluation import EvalConfig, evaluate
     from kr210_sim.report import check_writable
-    from kr210_sim.scene import load_model
 
     config = EvalConfig(
         episodes=args.episodes,
@@ -261,6 +264,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         backend=args.backend,
         address=args.address,
         ik=args.ik,
+        cell=args.cell,
     )
     _load_ik(args.ik)  # a bad SPEC is one line here, before any worker starts
     if config.backend == "ray":
@@ -271,7 +275,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         if find_spec("ray") is None:
             raise ConfigError(INSTALL_HINT)
     check_writable(args.report)
-    load_model(args.scene)  # a bad scene fails here, before any worker starts
+    model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
     outcome = evaluate(config, report=args.report, resume=args.resume)
     report = outcome.report
     s = report["summary"]
@@ -306,6 +310,15 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     passed = s["success_rate"] >= args.min_success
     out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
     return 0 if passed else 1
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from kr210_sim.cellcheck import check_cell
+    from kr210_sim.cells import model_for
+
+    result = check_cell(model_for(args.scene, args.cell))
+    sys.stdout.write(result.table() + "\n")
+    return 0 if result.ok else 1
 
 
 def _cmd_ik_check(args: argparse.Namespace) -> int:
@@ -349,11 +362,23 @@ def _cmd_build_meshes(args: argparse.Namespace) -> int:
 
 
 def _cmd_snapshot(args: argparse.Namespace) -> int:
+    from kr210_sim.cells import model_for
     from kr210_sim.render import snapshot
 
-    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height)
+    model = model_for(None, args.cell) if args.cell is not None else None
+    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height, model=model)
     print(f"wrote {path}")
     return 0
+
+
+def _add_cell_option(cmd: argparse.ArgumentParser) -> None:
+    cmd.add_argument(
+        "--cell",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="cell file (TOML), e.g. scenes/cells/published.toml; compiled instead of --scene",
+    )
 
 
 def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT) -> None:
@@ -379,6 +404,7 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT
         help="pass bar: exit 1 below this success rate (0.8)",
     )
     cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(cmd)
     cmd.add_argument(
         "--ik",
         default=None,
@@ -487,6 +513,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--seed", type=_seed, default=0, help="seed of the episode seeds (0)")
     ev.add_argument("--randomize", action="store_true", help="randomise each episode's target")
     ev.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(ev)
     ev.add_argument(
         "--ik",
         default=None,
@@ -503,6 +530,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--min-success", type=_fraction, default=0.995, help="pass bar for exit 0 (0.995)"
     )
     ev.set_defaults(func=_cmd_evaluate)
+
+    chk = sub.add_parser("check", help="can every slot and drop spot of a cell be served?")
+    chk.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_cell_option(chk)
+    chk.set_defaults(func=_cmd_check)
 
     ikc = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
     ikc.add_argument(
@@ -552,6 +584,7 @@ def build_parser() -> argparse.ArgumentParser:
     snap.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
     snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
     snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
+    _add_cell_option(snap)
     snap.set_defaults(func=_cmd_snapshot)
     return parser
 
@@ -588,6 +621,9 @@ def _main(argv: list[str] | None) -> int:
     try:
         return int(args.func(args))
     except Kr210SimError as exc:
+        table = getattr(exc, "table", None)
+        if table:
+            sys.stderr.write(table + "\n")
         sys.stderr.write(f"kr210_sim: error: {exc}\n")
         return 2
     except KeyboardInterrupt as exc:

@@ -7,6 +7,7 @@ base frame (x towards the shelf, z up). Values follow the published KR210 pick-a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,109 +49,220 @@ class TargetSpec:
             _check_positive(f"target {name}", getattr(self, name))
 
 
+#: Width of the shelf's side walls and dividers along the shelf's width [m].
+SHELF_POST_WIDTH = 0.1
+#: Thickness of the shelf's boards [m].
+SHELF_BOARD_THICKNESS = 0.04
+#: Radius of the robot's base footprint around the joint_1 axis [m]: nothing of the cell may
+#: stand inside it (base_link's mesh reaches 0.59 m at its corners).
+ROBOT_BASE_RADIUS = 0.6
+#: Height below which :data:`ROBOT_BASE_RADIUS` is kept clear [m] (base and joint_1 housing).
+ROBOT_BASE_HEIGHT = 1.0
+
+
+def _round(x: float) -> float:
+    """Round a derived length to 1 nm so sums of published figures stay exact."""
+    return round(float(x), 9)
+
+
 @dataclass(frozen=True, slots=True)
 class ShelfSpec:
-    """A shelf of three boards and four vertical dividers, open towards the robot (-x side).
+    """A shelf of ``rows`` boards and ``columns`` compartments, open towards the robot.
+
+    The shelf frame has its origin at the centre of the footprint on the floor; its x axis points
+    from the open front into the shelf (towards +x at ``yaw_deg`` = 0, the published cell, whose
+    front faces the robot at -x). Slots are numbered row by row from the bottom, and in a row
+    from left to right as seen from the robot (from the shelf's -x side), as in the published
+    cell.
 
     Attributes:
-        x_front: x of the front edge (towards the robot) in [m].
-        depth: Depth along x in [m].
-        half_width: Half the width along y in [m].
-        height: Total height in [m].
-        board_tops: z of the three board top surfaces, bottom row first, in [m].
-        board_thickness: Board thickness in [m].
-        divider_y: (inner, outer) |y| of each divider's faces in [m]; dividers are mirrored in y.
-        post_y: (inner, outer) |y| of the two outer side walls in [m].
+        position: Centre of the footprint (x, y) in the base frame [m].
+        yaw_deg: Rotation about z [deg]; 0 = open front towards -x.
+        rows: Number of boards (rows of slots), 1-5.
+        columns: Number of compartments per row, 1-5.
+        column_pitch: Distance between neighbouring compartment centres [m].
+        row_pitch: Distance between neighbouring board tops [m], one per gap (rows - 1 values).
+        bottom: z of the lowest board's top [m].
+        depth: Depth of the shelf along its x axis [m].
+        height: Height of the top panel's upper surface [m].
+        slot_inset: Distance of a slot centre behind the open front [m].
     """
 
-    x_front: float = 2.49
-    depth: float = 0.42
-    half_width: float = 1.4
-    height: float = 3.0
-    board_tops: tuple[float, float, float] = (0.789, 1.556, 2.322)
-    board_thickness: float = 0.04
-    divider_y: tuple[float, float] = (0.4, 0.5)
-    post_y: tuple[float, float] = (1.3, 1.4)
+    position: tuple[float, float]
+    yaw_deg: float
+    rows: int
+    columns: int
+    column_pitch: float
+    row_pitch: tuple[float, ...]
+    bottom: float
+    depth: float
+    height: float
+    slot_inset: float
 
     def __post_init__(self) -> None:
-        for name in ("depth", "half_width", "height", "board_thickness"):
+        for name in ("column_pitch", "bottom", "depth", "height", "slot_inset"):
             _check_positive(f"shelf {name}", getattr(self, name))
+        if len(self.row_pitch) != self.rows - 1:
+            raise ConfigError(
+                f"shelf row_pitch needs {self.rows - 1} values, got {len(self.row_pitch)}"
+            )
+        for p in self.row_pitch:
+            _check_positive("shelf row_pitch", p)
+
+    @property
+    def board_tops(self) -> tuple[float, ...]:
+        """z of each board's top surface, bottom row first [m]."""
+        tops = [self.bottom]
+        for p in self.row_pitch:
+            tops.append(_round(tops[-1] + p))
+        return tuple(tops)
+
+    @property
+    def half_width(self) -> float:
+        """Half the outer width across the compartments [m]."""
+        return _round(self.columns * self.column_pitch / 2.0 + SHELF_POST_WIDTH / 2.0)
+
+    @property
+    def yaw(self) -> float:
+        """Yaw [rad]."""
+        return math.radians(self.yaw_deg)
+
+    def to_world(self, local: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """A point of the shelf frame in the base frame [m] (rounded to 1 nm)."""
+        p = np.asarray(local, dtype=np.float64)
+        c, s = _cos_sin(self.yaw_deg)
+        x = self.position[0] + c * p[0] - s * p[1]
+        y = self.position[1] + s * p[0] + c * p[1]
+        return np.array([_round(x), _round(y), _round(p[2])])
+
+    def slot_local(self, number: int) -> tuple[float, float, float]:
+        """Slot ``number``'s point on its board, in the shelf frame [m]."""
+        row, col = divmod(number - 1, self.columns)
+        y = ((self.columns - 1) / 2.0 - col) * self.column_pitch
+        return (-self.depth / 2.0 + self.slot_inset, y, self.board_tops[row])
+
+
+def _cos_sin(yaw_deg: float) -> tuple[float, float]:
+    """cos and sin of ``yaw_deg`` [deg], exact at multiples of 90 deg."""
+    a = math.radians(yaw_deg)
+    return _round(math.cos(a)), _round(math.sin(a))
 
 
 @dataclass(frozen=True, slots=True)
 class BinSpec:
-    """The open drop bin.
+    """The open drop bin (axis-aligned).
 
     Attributes:
-        center_xy: Centre of the bin footprint in [m].
-        outer_size: Outer edge length of the square footprint in [m].
-        height: Height of the rim above the ground in [m].
-        wall: Wall thickness in [m].
-        floor_top: z of the bin floor's top surface in [m].
+        position: Centre of the footprint (x, y) [m].
+        size: Outer extents (x, y) and the rim's height [m].
+        wall: Wall thickness [m].
+        floor_top: z of the bin floor's top surface [m].
     """
 
-    center_xy: tuple[float, float] = (0.0, 2.5)
-    outer_size: float = 1.0
-    height: float = 1.0
+    position: tuple[float, float]
+    size: tuple[float, float, float]
     wall: float = 0.06
     floor_top: float = 0.05
 
     def __post_init__(self) -> None:
-        for name in ("outer_size", "height", "wall", "floor_top"):
+        for name, v in zip(("outer_x", "outer_y", "height"), self.size, strict=True):
+            _check_positive(f"bin {name}", v)
+        for name in ("wall", "floor_top"):
             _check_positive(f"bin {name}", getattr(self, name))
 
     @property
-    def inner_half(self) -> float:
-        """Half the inner edge length of the bin in [m]."""
-        return self.outer_size / 2.0 - self.wall
+    def inner_half(self) -> tuple[float, float]:
+        """Half the inner extents (x, y) [m]."""
+        return (
+            _round(self.size[0] / 2.0 - self.wall),
+            _round(self.size[1] / 2.0 - self.wall),
+        )
+
+    def drop_offsets(self) -> list[tuple[float, float]]:
+        """Where successive cylinders are released: offsets of the cylinder's centre from the
+        bin's centre [m], a 3x3 grid at half the inner half-extents, centre first.
+
+        The published cell drops every cylinder at one point; released upright on one spot,
+        cylinders land on each other and stack into a tower that tops the rim, so we spread
+        them (0.22 m apart in the published 1 m bin).
+        """
+        hx, hy = self.inner_half
+        dx, dy = _round(hx / 2.0), _round(hy / 2.0)
+        return [(i, j) for j in (0.0, dy, -dy) for i in (0.0, dx, -dx)]
 
 
-#: The nine published spawn slots (cylinder centre), numbered 1-9 row by row from the bottom.
-#: The bottom and top rows are lifted onto their board surfaces: the published heights put the
-#: cylinder 2-3 mm into the board (0.911 -> 0.914, 2.445 -> 2.447).
-DEFAULT_SLOTS: tuple[tuple[float, float, float], ...] = tuple(
-    (2.6, y, z) for z in (0.914, 1.681, 2.447) for y in (0.9, 0.0, -0.9)
-)
+@dataclass(frozen=True, slots=True)
+class ObstacleSpec:
+    """A box in the cell.
+
+    Attributes:
+        position: Centre (x, y, z) [m].
+        size: Full extents (x, y, z) before the yaw [m].
+        yaw_deg: Rotation about z [deg].
+    """
+
+    position: tuple[float, float, float]
+    size: tuple[float, float, float]
+    yaw_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        for v in self.size:
+            _check_positive("obstacle size", v)
 
 
 @dataclass(frozen=True, slots=True)
 class CellConfig:
-    """The whole cell: shelf, slots, bin, targets and where spare targets wait.
+    """A whole cell: shelf, bin, obstacles, targets and where spare targets wait.
+
+    Cells are read from TOML files (:mod:`kr210_sim.cells`); the published one is
+    ``scenes/cells/published.toml``. At run time the model compiled from the cell is the source
+    of truth (:mod:`kr210_sim.layout`), not this value.
 
     Attributes:
-        target: The target cylinder.
+        name: The cell's name.
         shelf: The shelf.
         bin: The drop bin.
-        slots: Cylinder centre of each spawn slot (1-based numbering = index + 1) in [m].
+        target: The nominal target cylinder.
+        randomization: Per-cycle randomisation ranges (with ``--randomize``).
+        obstacles: Boxes in the cell.
         n_targets: Number of target cylinders in the scene (one fresh one per cycle).
         park_origin: Where the first spare cylinder waits (on the floor, out of reach and out of
             every fixed camera's shot) in [m].
         park_spacing: Spacing between parked cylinders along y in [m].
+        sha256: Hash of the file the cell was read from ("" when built in code).
     """
 
+    name: str
+    shelf: ShelfSpec
+    bin: BinSpec
     target: TargetSpec = field(default_factory=TargetSpec)
-    shelf: ShelfSpec = field(default_factory=ShelfSpec)
-    bin: BinSpec = field(default_factory=BinSpec)
-    slots: tuple[tuple[float, float, float], ...] = DEFAULT_SLOTS
+    randomization: RandomizationSpec = field(default_factory=lambda: RandomizationSpec())
+    obstacles: tuple[ObstacleSpec, ...] = ()
     n_targets: int = 10
     park_origin: tuple[float, float] = (-3.2, -4.2)
     park_spacing: float = 0.3
+    sha256: str = ""
 
     def __post_init__(self) -> None:
-        if len(self.slots) != 9:
-            raise ConfigError(f"the cell has nine slots, got {len(self.slots)}")
         if self.n_targets < 1:
             raise ConfigError(f"n_targets must be >= 1, got {self.n_targets}")
 
+    @property
+    def n_slots(self) -> int:
+        """Number of slots (rows x columns)."""
+        return self.shelf.rows * self.shelf.columns
+
     def slot(self, number: int) -> npt.NDArray[np.float64]:
-        """Centre of slot ``number`` (1-9, published numbering) in [m].
+        """Centre of a nominal target in slot ``number`` (1-based) in [m].
 
         Raises:
-            ConfigError: When ``number`` is outside 1-9.
+            ConfigError: When ``number`` is outside 1..rows x columns.
         """
-        if not 1 <= number <= 9:
-            raise ConfigError(f"slot must be 1-9 (0 means random), got {number}")
-        return np.array(self.slots[number - 1], dtype=np.float64)
+        if not 1 <= number <= self.n_slots:
+            raise ConfigError(f"slot must be 1-{self.n_slots} (0 means random), got {number}")
+        p = self.shelf.to_world(self.shelf.slot_local(number))
+        p[2] = p[2] + self.target.length / 2.0
+        return p
 
     def park_position(self, index: int) -> npt.NDArray[np.float64]:
         """Where spare target ``index`` rests (upright on the floor) in [m]."""
@@ -173,10 +285,6 @@ class MotionConfig:
         grasp_dz: Height of the grasp point relative to the target's centre [m].
         lift: Height of the lift after closing [m].
         drop_height: Height of gripper_link above the ground at release [m] (published: 1.6).
-        drop_spots: Where successive cylinders are released, as offsets of the cylinder's centre
-            from the bin's centre [m], used in turn. The published cell drops every cylinder at
-            one point, (-0.1, 2.5, 1.6); released upright on the same spot, cylinders land on
-            each other and stack into a tower that tops the rim, so we spread them over a grid.
         ready_q: Joint state the arm waits in between cycles [rad].
         close_timeout: Longest wait for the grip to settle after closing starts [s].
         release_wait: Wait after opening before the arm leaves the bin [s].
@@ -190,9 +298,6 @@ class MotionConfig:
     grasp_dz: float = 0.0
     lift: float = 0.04
     drop_height: float = 1.6
-    drop_spots: tuple[tuple[float, float], ...] = tuple(
-        (dx, dy) for dy in (0.0, 0.22, -0.22) for dx in (0.0, 0.22, -0.22)
-    )
     ready_q: tuple[float, float, float, float, float, float] = (0.8, -0.2, 0.2, 0.0, 0.0, 0.0)
     close_timeout: float = 1.0
     release_wait: float = 0.25
@@ -208,8 +313,6 @@ class MotionConfig:
             "drop_height",
         ):
             _check_positive(f"motion {name}", getattr(self, name))
-        if not self.drop_spots:
-            raise ConfigError("drop_spots must name at least one spot")
 
 
 @dataclass(frozen=True, slots=True)

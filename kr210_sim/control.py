@@ -27,7 +27,6 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.config import CellConfig
 from kr210_sim.scene import CellHandles
 
 import mujoco  # isort: skip
@@ -112,7 +111,7 @@ class Recording:
     Each segment holds arrays with one row per physics tick: ``t`` simulated time [s],
     ``q_des`` / ``qd_des`` commanded joint positions [rad] / velocities [rad/s], ``q`` / ``qd``
     measured ones, ``target_in_gripper`` the active target's centre in the gripper_link frame
-    [m], ``env_contact`` a robot-shelf/bin contact flag.
+    [m], ``env_contact`` a robot/cell-part contact flag.
 
     Attributes:
         segments: The recorded segments, in order.
@@ -156,13 +155,11 @@ class Cell:
 
     Args:
         model: The compiled cell model (see :func:`kr210_sim.scene.load_model`).
-        config: The cell layout the model was built from.
     """
 
-    def __init__(self, model: mujoco.MjModel, config: CellConfig | None = None) -> None:
+    def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
-        self.config = config or CellConfig()
         self.handles = CellHandles.from_model(model)
         h = self.handles
         self.kp = model.actuator_gainprm[h.arm_act, 0].copy()
@@ -179,7 +176,7 @@ class Cell:
         self._is_robot = np.zeros(model.ngeom, dtype=bool)
         self._is_robot[list(h.robot_geoms)] = True
         self._is_env = np.zeros(model.ngeom, dtype=bool)
-        self._is_env[list(h.shelf_geoms | h.bin_geoms)] = True
+        self._is_env[list(h.env_geoms)] = True
         self.active_target = 0
         self.grip_ctrl = float(model.actuator_ctrlrange[h.grip_act, 0])
         self.hooks: list[StepHook] = []
@@ -264,7 +261,7 @@ class Cell:
         return hit_r, hit_l
 
     def env_contact_pairs(self) -> list[tuple[str, str]]:
-        """Names of the robot/shelf-or-bin geom pairs in contact now."""
+        """Names of the robot/cell-part geom pairs (shelf, bin, obstacles, floor) in contact now."""
         n = self.data.ncon
         if not n:
             return []
@@ -387,7 +384,8 @@ class Cell:
         gb = h.gripper_body
         tb = int(h.target_bodies[self.active_target])
         sensors = d.sensordata
-        s_shelf, s_bin = h.env_contact_sensors
+        es = h.env_contact_sensors  # consecutive sensordata addresses
+        env_sensors = slice(min(es), max(es) + 1)
         hooks = self.hooks
         step = mujoco.mj_step
         t0 = d.time
@@ -404,7 +402,7 @@ class Cell:
             g_pos[k] = xpos[gb]
             g_mat[k] = xmat[gb]
             t_pos[k] = xpos[tb]
-            if sensors[s_shelf] or sensors[s_bin]:  # robot touches the shelf or the bin
+            if sensors[env_sensors].any():  # robot touches a cell part
                 contact[k] = True
                 if recording is not None:
                     recording.contact_pairs.update(self.env_contact_pairs())

@@ -250,7 +250,7 @@ def dress_bin(
     body: mujoco.MjsBody,
     visual: mujoco.MjsDefault,
     center_xy: tuple[float, float],
-    outer_size: float,
+    size_xy: tuple[float, float],
     height: float,
     floor_top: float,
 ) -> None:
@@ -261,18 +261,18 @@ def dress_bin(
         body: The bin body.
         visual: The visual default class.
         center_xy: Centre of the bin on the floor [m].
-        outer_size: Outer side length [m].
+        size_xy: Outer extents along x and y [m].
         height: Wall height [m].
         floor_top: z of the floor's top surface [m].
     """
     boxes = _Boxes()
     bx, by = center_xy
-    h = outer_size / 2
+    hx, hy = size_xy[0] / 2, size_xy[1] / 2
     tube = 0.02
-    boxes.add((bx, by, floor_top / 2), (h, h, floor_top / 2), FINISH_LOOK["dark"][0])
+    boxes.add((bx, by, floor_top / 2), (hx, hy, floor_top / 2), FINISH_LOOK["dark"][0])
     for sx, sy in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
         boxes.add(
-            (bx + sx * (h - tube), by + sy * (h - tube), height / 2),
+            (bx + sx * (hx - tube), by + sy * (hy - tube), height / 2),
             (tube, tube, height / 2),
             CAGE_RGBA,
         )
@@ -280,26 +280,27 @@ def dress_bin(
         for dx, dy in ((0, 1), (1, 0)):
             for s in (-1, 1):
                 boxes.add(
-                    (bx + dx * s * (h - tube), by + dy * s * (h - tube), z),
-                    (tube if dx else h, tube if dy else h, tube),
+                    (bx + dx * s * (hx - tube), by + dy * s * (hy - tube), z),
+                    (tube if dx else hx, tube if dy else hy, tube),
                     CAGE_RGBA,
                 )
     # Mesh walls: a tinted see-through panel per side and the vertical wires of the grid.
-    n = round(outer_size / CAGE_PITCH)
     for axis, (dx, dy) in enumerate(((0, 1), (1, 0))):
+        half = hx if dy else hy  # half the length of this pair of sides
+        n = round(2 * half / CAGE_PITCH)
         for s in (-1, 1):
             side = f"{axis}_{'p' if s > 0 else 'n'}"
-            x, y = bx + dx * s * (h - tube), by + dy * s * (h - tube)
+            x, y = bx + dx * s * (hx - tube), by + dy * s * (hy - tube)
             _geom(
                 body,
                 visual,
                 f"cage_panel_{side}",
                 (x, y, height / 2),
-                (0.002 if dx else h, 0.002 if dy else h, height / 2),
+                (0.002 if dx else hx, 0.002 if dy else hy, height / 2),
                 CAGE_MESH_RGBA,
             )
             for k in range(1, n):
-                t = -h + k * CAGE_PITCH
+                t = -half + k * CAGE_PITCH
                 boxes.add(
                     (x + dy * t, y + dx * t, height / 2),
                     (CAGE_WIRE, CAGE_WIRE, height / 2),

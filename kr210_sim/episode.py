@@ -33,13 +33,16 @@ def episode_seed(seed: int, index: int) -> int:
 
 
 def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
-    """The pristine model of ``scene`` (None: the committed scene), loaded once per process."""
+    """The pristine model of ``scene`` (an MJCF file, a ``.toml`` cell file compiled, or None
+    for the committed scene), loaded once per process."""
     global _PRISTINE
     key = str(scene) if scene is not None else None
     if _PRISTINE is None or _PRISTINE[0] != key:
-        from kr210_sim.scene import load_model
+        from kr210_sim.cells import model_for
 
-        _PRISTINE = (key, load_model(scene))
+        path = Path(scene) if scene is not None else None
+        cell = path is not None and path.suffix.lower() == ".toml"
+        _PRISTINE = (key, model_for(None, path) if cell else model_for(path, None))
     return _PRISTINE[1]
 
 

@@ -60,3 +60,16 @@ class IkFailedError(PlanningError):
     """A user-supplied IK function gave no usable answer for a pose the plan needs (it raised,
     returned something that is not six finite angles, left the joint limits, missed the pose or
     jumped branch between neighbouring straight-line samples)."""
+
+
+class UnservableCellError(ConfigError):
+    """No slot of a cell can be served; ``table`` is the check's table (printed before the
+    one-line message)."""
+
+    def __init__(self, message: str, table: str) -> None:
+        super().__init__(message)
+        self.table = table
+
+
+class NoPathError(PlanningError):
+    """No collision-free plan exists for a move (the detail names what blocks)."""

@@ -75,6 +75,7 @@ class EvalConfig:
         backend: ``local`` (processes on this machine) or ``ray``.
         address: Ray cluster address (``auto`` or ``host:port``); None starts Ray here.
         ik: SPEC of the user's IK to plan every episode with (``--ik``), or None for ours.
+        cell: Cell file (TOML) compiled instead of a scene (``--cell``), or None.
     """
 
     episodes: int = 100
@@ -85,8 +86,11 @@ class EvalConfig:
     backend: str = "local"
     address: str | None = None
     ik: str | None = None
+    cell: Path | None = None
 
     def __post_init__(self) -> None:
+        if self.scene is not None and self.cell is not None:
+            raise ConfigError("give --scene or --cell, not both (a cell compiles to a scene)")
         if not isinstance(self.episodes, int) or self.episodes < 1:
             raise ConfigError(f"episodes must be a whole number >= 1, got {self.episodes!r}")
         if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
@@ -234,9 +238,15 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
         "seed": config.seed,
         "randomize": config.randomize,
         "scene": str(config.scene) if config.scene else None,
+        **({"cell": str(config.cell)} if config.cell is not None else {}),
         **({"ik": config.ik} if config.ik is not None else {}),
         "versions": versions(),
     }
+
+
+def _source(config: EvalConfig) -> Path | None:
+    """What the workers load: the cell file (``.toml``, compiled) or the scene (MJCF)."""
+    return config.cell if config.cell is not None else config.scene
 
 
 def _local_workers(config: EvalConfig, todo: int) -> int:
@@ -288,11 +298,11 @@ def evaluate(
     backend: LocalBackend | RayBackend
     if config.backend == "ray":
         backend = RayBackend(
-            config.workers, config.randomize, config.scene, config.address, todo, config.ik
+            config.workers, config.randomize, _source(config), config.address, todo, config.ik
         )
     else:
         backend = LocalBackend(
-            _local_workers(config, todo), config.randomize, config.scene, config.ik
+            _local_workers(config, todo), config.randomize, _source(config), config.ik
         )
 
     caught: int | None = None
@@ -361,11 +371,14 @@ def _report(
             "seed": config.seed,
             "randomize": config.randomize,
             "scene": identity["scene"],
+            "cell": str(config.cell) if config.cell else None,
             **({"ik": config.ik} if config.ik is not None else {}),
-            "randomization": _randomization(),
+            "randomization": _randomization(config),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
             + (" --randomize" if config.randomize else "")
-            + (f" --ik {config.ik}" if config.ik is not None else ""),
+            + (f" --ik {config.ik}" if config.ik is not None else "")
+            + (f" --scene {config.scene}" if config.scene else "")
+            + (f" --cell {config.cell}" if config.cell else ""),
         },
         "summary": summary.summary(),
         "failed_episodes": summary.failed_records(),
@@ -376,9 +389,10 @@ def _report(
     }
 
 
-def _randomization() -> dict[str, Any]:
-    from kr210_sim.config import RandomizationSpec
+def _randomization(config: EvalConfig) -> dict[str, Any]:
+    """The randomisation ranges of the evaluated cell (as its model holds them)."""
+    from kr210_sim.cells import model_for
+    from kr210_sim.layout import CellLayout
 
-    return {
-        k: list(v) if isinstance(v, tuple) else v for k, v in asdict(RandomizationSpec()).items()
-    }
+    r = CellLayout.from_model(model_for(config.scene, config.cell)).randomization
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(r).items()}

@@ -112,10 +112,9 @@ class ScriptedExpert:
         radius = e.target.spec.radius
         q0 = e.q_cmd.copy()
         try:
-            g = self.planner.plan_grasp(q0, position, radius)
-            bx, by = e.bin.center_xy
-            dx, dy = e.motion.drop_spots[0]
-            carry = self.planner.plan_carry(g.retreat.q_end, (bx + dx, by + dy), radius)
+            length = e.target.spec.length
+            g = self.planner.plan_grasp(q0, position, radius, length)
+            carry = self.planner.plan_carry(g.retreat.q_end, e.layout.drop_spots[0], radius, length)
             back = self.planner.plan_return(carry.q_end)
         except (UnreachablePoseError, PlanningError) as exc:
             log.info("episode %d: no plan: %s", e.episode, exc)

@@ -81,25 +81,26 @@ class Case:
 def cell_cases() -> list[Case]:
     """Standoff, grasp, lift and retreat poses of every slot and the drop pose of every drop
     spot of the published cell, as the planner computes them."""
+    from kr210_sim.layout import CellLayout
     from kr210_sim.robot import load_robot
     from kr210_sim.runner import RunConfig, sample_target
+    from kr210_sim.scene import load_model
     from kr210_sim.task import Planner
 
     config = RunConfig()
+    layout = CellLayout.from_model(load_model())
     planner = Planner(load_robot(), config.motion)
     rng = np.random.default_rng(0)  # unused: the nominal target draws nothing
     cases: list[Case] = []
-    for slot in range(1, 10):
-        target = sample_target(rng, config, slot)
+    for slot in range(1, layout.n_slots + 1):
+        target = sample_target(rng, config, layout, slot)
         poses = planner.grasp_poses(target.position, target.spec.radius)
         q_ref = planner.ready_q
         for what, T in zip(("standoff", "grasp", "lift", "retreat"), poses, strict=True):
             cases.append(Case("cell", f"slot {slot} {what}", T, q_ref.copy()))
             q_ref = kinematics.nearest(T, q_ref)
-    bx, by = config.cell.bin.center_xy
-    radius = config.cell.target.radius
-    for i, (dx, dy) in enumerate(config.motion.drop_spots, start=1):
-        T = planner.drop_pose((bx + dx, by + dy), radius)
+    for i, drop in enumerate(layout.drop_spots, start=1):
+        T = planner.drop_pose(drop, layout.target.radius)
         cases.append(Case("cell", f"drop spot {i}", T, planner.ready_q.copy()))
     return cases
 

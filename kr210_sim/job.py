@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.cells import model_for
+from kr210_sim.errors import ConfigError, RenderError, UnservableCellError
 from kr210_sim.ik_plugin import UserIk
 from kr210_sim.interrupts import signal_name
 from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
@@ -25,8 +26,9 @@ from kr210_sim.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.plots import PLOT_NAMES
 from kr210_sim.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.runner import CycleResult, RunConfig, Runner
-from kr210_sim.scene import load_model
 from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
+
+import mujoco  # isort: skip
 
 
 @dataclass
@@ -60,12 +62,13 @@ def check_outputs(
     plots_dir: Path | None,
     scene: Path | None,
     ik: UserIk | None = None,
+    cell: Path | None = None,
 ) -> None:
     """Refuse, before anything runs, outputs that cannot be written or that clash.
 
     Raises:
         ConfigError: An output path is unwritable, two outputs name one file, or an output names
-            an input (the scene, the URDF, the IK file).
+            an input (the scene or cell file, the URDF, the IK file).
     """
     if report_path is not None:
         check_writable(report_path)
@@ -80,10 +83,26 @@ def check_outputs(
         outputs.update({f"--plots {name}": plots_dir / name for name in PLOT_NAMES})
     inputs: dict[str, Path | None] = {
         "--scene": scene if scene is not None else SCENE_PATH,
+        "--cell": cell,
         "the URDF": URDF_PATH,
         "--ik": ik.source if ik is not None else None,
     }
     check_distinct(outputs, inputs)
+
+
+def refuse_unservable(model: mujoco.MjModel) -> None:
+    """Refuse a cell (another than the committed one) none of whose slots can be served.
+
+    Raises:
+        UnservableCellError: With the check's table (see :mod:`kr210_sim.cellcheck`).
+    """
+    from kr210_sim.cellcheck import check_cell
+
+    result = check_cell(model)
+    if not result.any_slot:
+        raise UnservableCellError(
+            f"cell {result.name}: no slot can be served (see the table above)", result.table()
+        )
 
 
 def run_job(
@@ -95,6 +114,7 @@ def run_job(
     progress_stream: TextIO | None = None,
     scene: Path | None = None,
     ik: UserIk | None = None,
+    cell: Path | None = None,
 ) -> JobResult:
     """Run ``config.cycles`` cycles and write the report (and video, and plots).
 
@@ -106,6 +126,7 @@ def run_job(
         out: Where the per-cycle lines go (stdout).
         progress_stream: Where the video progress bar goes (stderr).
         scene: MJCF scene path (default: the committed scene).
+        cell: Cell file (TOML), compiled instead of a scene.
         ik: A user's IK function to plan with (default: our closed form); the report's summary
             then has an ``ik`` block (SPEC, calls, wall time per call).
 
@@ -120,11 +141,14 @@ def run_job(
         SceneError: When the scene cannot be loaded.
     """
     out = out or sys.stdout
-    check_outputs(report_path, video, plots_dir, scene, ik)
-    # Without --scene the runner loads the committed scene itself, after the URDF.
+    check_outputs(report_path, video, plots_dir, scene, ik, cell)
+    # Without --scene or --cell the runner loads the committed scene itself, after the URDF.
+    model = model_for(scene, cell) if scene is not None or cell is not None else None
+    if model is not None:
+        refuse_unservable(model)
     runner = Runner(
         config,
-        model=load_model(scene) if scene is not None else None,
+        model=model,
         keep_recordings=plots_dir is not None,
         ik=ik,
     )
@@ -134,10 +158,10 @@ def run_job(
     if video is not None:
         progress = Progress(config.cycles, progress_stream, tail=video.tail)
         status = runner.status
-        cell = runner.cell
+        sim = runner.cell
 
         def lines() -> list[str]:
-            return overlay_lines(status, cell.time)
+            return overlay_lines(status, sim.time)
 
         try:  # a bad camera or size raises ConfigError here, before anything has run
             recorder = FrameRecorder(runner.model, video, lines, progress)
@@ -166,7 +190,12 @@ def run_job(
         )
     wall = time.perf_counter() - wall0
     report = build_report(
-        config, runner.results, wall, interrupted=interrupted, events=runner.events
+        config,
+        runner.results,
+        wall,
+        interrupted=interrupted,
+        events=runner.events,
+        cell=runner.layout.describe(),
     )
     if runner.planner.user_ik is not None:
         report["summary"]["ik"] = runner.planner.user_ik.summary()

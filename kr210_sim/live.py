@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import kinematics
+from kr210_sim.cells import model_for
 from kr210_sim.control import Cell
 from kr210_sim.errors import ConfigError
 from kr210_sim.ik_plugin import UserIk
@@ -233,6 +234,7 @@ def view_job(
     scene: Path | None = None,
     on_ready: Callable[[LiveViewer], None] | None = None,
     ik: UserIk | None = None,
+    cell: Path | None = None,
 ) -> ViewResult:
     """Run ``config.cycles`` cycles live in the viewer and write the report.
 
@@ -245,6 +247,7 @@ def view_job(
         scene: MJCF scene path (default: the committed scene).
         on_ready: Called with the open viewer before the first cycle (tests press Next with it).
         ik: A user's IK function to plan with (as ``run --ik``).
+        cell: Cell file (TOML), compiled instead of a scene.
 
     Returns:
         The report and the measured pace.
@@ -253,8 +256,9 @@ def view_job(
         ConfigError: An unwritable report path, a busy port, no display for ``--window``.
     """
     out = out or sys.stdout
-    check_outputs(report_path, None, None, scene, ik)
-    runner = Runner(config, model=load_model(scene) if scene is not None else None, ik=ik)
+    check_outputs(report_path, None, None, scene, ik, cell)
+    model = model_for(scene, cell) if scene is not None or cell is not None else None
+    runner = Runner(config, model=model, ik=ik)
     viewer = LiveViewer(runner.model, settings)
     try:
         session = _Session(viewer, runner, out)
@@ -293,6 +297,7 @@ def view_job(
             if isinstance(interrupted, KeyboardInterrupt)
             else bool(interrupted),
             events=runner.events,
+            cell=runner.layout.describe(),
         )
         if runner.planner.user_ik is not None:
             report["summary"]["ik"] = runner.planner.user_ik.summary()

@@ -54,6 +54,7 @@ from kr210_sim import kinematics
 from kr210_sim.config import MotionConfig
 from kr210_sim.control import Cell, hold
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
+from kr210_sim.layout import CellLayout
 from kr210_sim.robot import load_robot
 from kr210_sim.runner import SPAWN_SETTLE, RunConfig, TargetSample, sample_target
 from kr210_sim.scene import load_model
@@ -158,7 +159,13 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self._renderer: mujoco.Renderer | None = None
         self.robot = load_robot()
         self.motion = MotionConfig()
-        self.cell = Cell(self.model, self.run_config.cell)
+        self.cell = Cell(self.model)
+        #: The cell as the compiled model holds it (slots, bin, drop spots): what ``run`` uses.
+        self.layout = CellLayout.from_model(self.model)
+        if not 0 <= self.run_config.slot <= self.layout.n_slots:
+            raise ConfigError(
+                f"slot must be 0 (random) or 1-{self.layout.n_slots}, got {self.run_config.slot!r}"
+            )
         if round(POLICY_DT / self.model.opt.timestep) != SUBSTEPS:
             raise ConfigError(
                 f"the scene's timestep is {self.model.opt.timestep} s; the environment needs "
@@ -169,12 +176,10 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.qd_max = self.robot.qd_max.copy()
         lo, hi = self.model.actuator_ctrlrange[self.cell.handles.grip_act]
         self._grip_range = (float(lo), float(hi))
-        b = self.run_config.cell.bin
+        b = self.layout.bin
         self.bin = b
-        self.goal = np.array([*b.center_xy, (b.floor_top + b.height) / 2.0])
-        self.goal_half_extents = np.array(
-            [b.inner_half, b.inner_half, (b.height - b.floor_top) / 2]
-        )
+        self.goal = np.array([*b.center, (b.floor_top + b.rim) / 2.0])
+        self.goal_half_extents = np.array([*b.inner_half, (b.rim - b.floor_top) / 2])
 
         n = CONTROLS[control]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
@@ -220,15 +225,16 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             raise ConfigError(f"unknown reset option(s) {unknown}: use 'slot' and 'randomize'")
         base = self.run_config
         slot = options.get("slot", base.slot)
-        if isinstance(slot, bool) or not isinstance(slot, (int, np.integer)):
-            raise ConfigError(f"slot must be 0 (random) or 1-9, got {slot!r}")
+        n = self.layout.n_slots
+        if isinstance(slot, bool) or not isinstance(slot, (int, np.integer)) or not 0 <= slot <= n:
+            raise ConfigError(f"slot must be 0 (random) or 1-{n}, got {slot!r}")
         config = RunConfig(
             cycles=1, slot=int(slot), randomize=bool(options.get("randomize", base.randomize))
         )
-        slot = config.slot or int(self.np_random.integers(1, 10))
-        self.target = sample_target(self.np_random, config, slot)
+        slot = config.slot or int(self.np_random.integers(1, n + 1))
+        self.target = sample_target(self.np_random, config, self.layout, slot)
         self.cell.reset(self.ready_q)
-        pool = TargetPool(self.cell, config.cell)
+        pool = TargetPool(self.cell, self.layout)
         pool.spawn(self.target.position, self.target.yaw, self.target.spec)
         self.cell.track(hold(self.ready_q, SPAWN_SETTLE))
         self.q_cmd = self.ready_q.copy()
@@ -397,13 +403,13 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         rested_for = self._still * float(self.model.opt.timestep)
         released = not any(c.finger_target_contacts())
         success = at_rest_in_bin(position, rested_for, self.bin) and released
-        s_shelf, s_bin = c.handles.env_contact_sensors
+        sensors = c.data.sensordata[list(c.handles.env_contact_sensors)]
         return {
             "is_success": bool(success),
             "rested_for": rested_for,
             "released": released,
             "gripper_to_target": float(np.linalg.norm(c.gripper_pose()[:3, 3] - position)),
-            "robot_cell_contact": bool(c.data.sensordata[s_shelf] or c.data.sensordata[s_bin]),
+            "robot_cell_contact": bool(sensors.any()),  # shelf, bin, obstacles, floor
             "slot": self.target.slot if self.target is not None else 0,
             "time": c.time,
         }

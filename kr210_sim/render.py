@@ -108,21 +108,22 @@ def snapshot(
     """
     import imageio.v3 as iio
 
-    from kr210_sim.config import CellConfig, MotionConfig
+    from kr210_sim.config import MotionConfig
+    from kr210_sim.layout import CellLayout
     from kr210_sim.outputs import check_writable, write_bytes_atomic
     from kr210_sim.scene import CellHandles, load_model
 
     path = check_writable(out)
     model = model if model is not None else load_model()
     check_camera(model, camera)
-    cell = CellConfig()
+    layout = CellLayout.from_model(model)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     h = CellHandles.from_model(model)
     data.qpos[h.arm_qpos] = MotionConfig().ready_q
-    for k in range(min(9, len(h.target_qpos))):
+    for k in range(min(layout.n_slots, len(h.target_qpos))):
         a = int(h.target_qpos[k])
-        data.qpos[a : a + 3] = cell.slot(k + 1)
+        data.qpos[a : a + 3] = layout.slots[k] + (0.0, 0.0, layout.target.length / 2.0)
         data.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
     mujoco.mj_forward(model, data)
     renderer = make_renderer(model, width, height)

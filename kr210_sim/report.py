@@ -40,7 +40,17 @@ __all__ = [
 #: Keys whose values depend on the machine or on how the work was spread over processes, not on
 #: the simulation (``execution``: worker count and wall time of an evaluation).
 WALL_KEYS = frozenset(
-    {"wall_time", "wall_time_s", "real_time_factor", "steps_per_second", "execution"}
+    {
+        "wall_time",
+        "wall_time_s",
+        "real_time_factor",
+        "steps_per_second",
+        "execution",
+        "planning_wall_time",
+        "planning_wall_time_s",
+        "planning_cpu_time",
+        "planning_cpu_time_s",
+    }
 )
 
 
@@ -93,7 +103,13 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         "env_contact_ticks": sum(r.env_contact_ticks for r in results),
         "grasp_retries": sum(max(r.grasp_attempts - 1, 0) for r in results),
         "sim_time": float(times.sum()) if n else 0.0,
+        "detours": sum(r.detours for r in results),
     }
+    if n:
+        plan = np.array([r.planning_wall_time for r in results])
+        summary["planning_wall_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
+        cpu = np.array([r.planning_cpu_time for r in results])
+        summary["planning_cpu_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
         summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
@@ -120,6 +136,7 @@ def build_report(
     wall_time: float | None,
     interrupted: BaseException | bool | None = None,
     events: Sequence[Event] = (),
+    cell: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The JSON-ready report of a run.
 
@@ -130,14 +147,16 @@ def build_report(
         interrupted: The interrupt that stopped the run (or True), None/False when it ran to
             the end.
         events: What was done to the cylinders between cycles (bin emptied, shelf cleared).
+        cell: The simulated cell (:meth:`kr210_sim.layout.CellLayout.describe`).
 
     Returns:
-        config, per-cycle records, events, summary, ``interrupted`` (bool) and
+        config, the cell, per-cycle records, events, summary, ``interrupted`` (bool) and
         ``interrupted_by`` (the signal's name or null), versions.
     """
     return {
         "kind": "kr210_sim.run",
         "config": _jsonable(config),
+        "cell": _jsonable(cell),
         "cycles": [_jsonable(r.to_dict()) for r in results],
         "events": [e.to_dict() for e in events],
         "summary": summarise(results, wall_time),

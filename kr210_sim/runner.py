@@ -7,6 +7,7 @@ plan (:mod:`kr210_sim.task`) -> execute (:mod:`kr210_sim.control`) -> monitor ->
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -16,10 +17,18 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import kinematics
-from kr210_sim.config import CellConfig, MotionConfig, RandomizationSpec, TargetSpec
+from kr210_sim.collide import CollisionChecker
+from kr210_sim.config import MotionConfig, TargetSpec
 from kr210_sim.control import Cell, Recording, hold
-from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
+from kr210_sim.errors import (
+    ConfigError,
+    IkFailedError,
+    NoPathError,
+    PlanningError,
+    UnreachablePoseError,
+)
 from kr210_sim.ik_plugin import UserIk
+from kr210_sim.layout import CellLayout
 from kr210_sim.metrics import gripper_tracking_error_mm
 from kr210_sim.robot import RobotDescription, load_robot
 from kr210_sim.scene import load_model
@@ -65,12 +74,13 @@ class RunConfig:
     Attributes:
         cycles: Number of pick-and-place cycles.
         seed: Seed of the run's random generator.
-        slot: Slot 1-9, or 0 for a random slot per cycle.
+        slot: Slot 1..rows x columns of the cell, or 0 for a random slot per cycle.
         randomize: Randomise the target per cycle (see :class:`RandomizationSpec`).
         grasp_attempts: Attempts at a grasp before the cycle is scored ``grasp_missed``.
-        cell: The cell layout.
         motion: Motion settings.
-        randomization: Randomisation ranges.
+
+    The cell (layout, target, randomisation ranges) is the simulated model's
+    (:class:`~kr210_sim.layout.CellLayout`), not a setting.
     """
 
     cycles: int = 10
@@ -78,9 +88,7 @@ class RunConfig:
     slot: int = 0
     randomize: bool = False
     grasp_attempts: int = 2
-    cell: CellConfig = field(default_factory=CellConfig)
     motion: MotionConfig = field(default_factory=MotionConfig)
-    randomization: RandomizationSpec = field(default_factory=RandomizationSpec)
 
     def __post_init__(self) -> None:
         if not isinstance(self.cycles, int) or not 1 <= self.cycles <= MAX_CYCLES:
@@ -88,8 +96,8 @@ class RunConfig:
                 f"cycles must be a whole number from 1 to {MAX_CYCLES}, got {self.cycles!r} "
                 "(use evaluate for more)"
             )
-        if not isinstance(self.slot, int) or not 0 <= self.slot <= 9:
-            raise ConfigError(f"slot must be 0 (random) or 1-9, got {self.slot!r}")
+        if not isinstance(self.slot, int) or self.slot < 0:
+            raise ConfigError(f"slot must be 0 (random) or a slot number, got {self.slot!r}")
         if self.grasp_attempts < 1:
             raise ConfigError(f"grasp_attempts must be >= 1, got {self.grasp_attempts!r}")
 
@@ -99,7 +107,7 @@ class TargetSample:
     """One cycle's target: where it spawns and what it is.
 
     Attributes:
-        slot: Slot number 1-9.
+        slot: Slot number (1-based).
         position: Spawn position of the centre [m].
         yaw: Spawn yaw [rad].
         spec: Size, mass and friction.
@@ -134,7 +142,12 @@ class CycleResult:
         target: The target's spawn sample.
         target_final: The target's final centre [m].
         phase_times: Simulated duration of each phase [s].
+        detours: Moves planned through via points to keep clear of the cell.
         wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
+        planning_wall_time: Wall-clock time spent planning the cycle's moves, collision checks
+            and detours included [s] (excluded from determinism checks).
+        planning_cpu_time: CPU time of that planning [s] (on a loaded machine the wall time
+            also counts the waits for a core; excluded from determinism checks).
     """
 
     index: int
@@ -152,7 +165,10 @@ class CycleResult:
     target: TargetSample
     target_final: tuple[float, float, float]
     phase_times: dict[str, float]
+    detours: int
     wall_time: float
+    planning_wall_time: float
+    planning_cpu_time: float
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready dictionary."""
@@ -161,17 +177,18 @@ class CycleResult:
         return d
 
 
-def sample_target(rng: np.random.Generator, config: RunConfig, cycle_slot: int) -> TargetSample:
+def sample_target(
+    rng: np.random.Generator, config: RunConfig, layout: CellLayout, cycle_slot: int
+) -> TargetSample:
     """Draw one cycle's target from the run's generator.
 
     The nominal target sits upright on its board at the slot centre; with ``randomize`` its
-    position, yaw, size, mass and friction are drawn from :class:`RandomizationSpec`.
+    position, yaw, size, mass and friction are drawn from the cell's randomisation ranges.
     """
-    cell, r = config.cell, config.randomization
-    centre = cell.slot(cycle_slot)
-    row = (cycle_slot - 1) // 3
-    board_top = cell.shelf.board_tops[row]
-    spec = cell.target
+    r = layout.randomization
+    centre = layout.slots[cycle_slot - 1]
+    board_top = float(centre[2])
+    spec = layout.target
     yaw = 0.0
     offset = np.zeros(2)
     if config.randomize:
@@ -216,8 +233,14 @@ class Runner:
         self.config = config
         self.robot = robot or load_robot()
         self.model = model if model is not None else load_model()
-        self.cell = Cell(self.model, config.cell)
-        self.planner = Planner(self.robot, config.motion, ik)
+        self.layout = CellLayout.from_model(self.model)
+        if config.slot > self.layout.n_slots:
+            raise ConfigError(
+                f"slot must be 0 (random) or 1-{self.layout.n_slots} in cell "
+                f"{self.layout.name!r}, got {config.slot}"
+            )
+        self.cell = Cell(self.model)
+        self.planner = Planner(self.robot, config.motion, ik, CollisionChecker(self.model))
         self.planner.check_ready()
         self.rng = np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
@@ -225,7 +248,7 @@ class Runner:
         self.results: list[CycleResult] = []
         self.keep_recordings = keep_recordings
         self.recordings: list[Recording] = []
-        self.targets = TargetPool(self.cell, config.cell)
+        self.targets = TargetPool(self.cell, self.layout)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -319,11 +342,11 @@ class Runner:
 
         Args:
             index: Cycle number (1-based).
-            slot: Slot 1-9.
+            slot: Slot number (1-based).
         """
         wall0 = time.perf_counter()
         cfg, cell = self.config, self.cell
-        sample = sample_target(self.rng, cfg, slot)
+        sample = sample_target(self.rng, cfg, self.layout, slot)
         self.status.update(cycle=index, slot=slot, phase="spawn")
         k = self._spawn(sample)
         rec = Recording()
@@ -331,7 +354,9 @@ class Runner:
         self._hold(SPAWN_SETTLE, rec, "spawn", phases)
         t_start = cell.time
         planned, confirmed, held, released, toppled = True, False, False, False, False
-        ik_failed = False
+        ik_failed = no_path = False
+        planning = planning_cpu = 0.0
+        detours0 = self.planner.detours
         attempts = 0
         detail = ""
         grip_ref: FloatArray | None = None
@@ -340,7 +365,16 @@ class Runner:
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
                 position = self.observe_target(k)
-                plan = self.planner.plan_grasp(self.q_cmd, position, sample.spec.radius)
+                # The whole cycle is planned (and collision-checked) before the arm moves.
+                t_plan, c_plan = time.perf_counter(), time.process_time()
+                radius, length = sample.spec.radius, sample.spec.length
+                plan = self.planner.plan_grasp(self.q_cmd, position, radius, length)
+                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
+                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
+                carry = self.planner.plan_carry(plan.retreat.q_end, drop, radius, length)
+                self.planner.plan_return(carry.q_end)
+                planning += time.perf_counter() - t_plan
+                planning_cpu += time.process_time() - c_plan
                 self._track(plan.approach_ptp, rec, phases)
                 self._track(plan.approach_lin, rec, phases)
                 confirmed = self._close(sample.spec.radius, rec, phases)
@@ -371,10 +405,6 @@ class Runner:
                 self._track(plan.lift, rec, phases)
                 self._track(plan.retreat, rec, phases)
             if confirmed:
-                spots = cfg.motion.drop_spots  # in turn, from the first after the bin is emptied
-                dx, dy = spots[(len(self.targets.in_play) - 1) % len(spots)]
-                bx, by = cfg.cell.bin.center_xy
-                carry = self.planner.plan_carry(self.q_cmd, (bx + dx, by + dy), sample.spec.radius)
                 self._track(carry, rec, phases)
                 assert grip_ref is not None
                 held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
@@ -386,6 +416,7 @@ class Runner:
         except (UnreachablePoseError, PlanningError) as exc:
             planned = False  # scored "unreachable": no plan within the limits exists
             ik_failed = isinstance(exc, IkFailedError)  # scored "ik_failed": the user's IK
+            no_path = isinstance(exc, NoPathError)  # scored "no_path": every plan collides
             detail = str(exc)
             log.info("cycle %d: %s", index, detail)
             if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
@@ -419,11 +450,17 @@ class Runner:
             target_toppled=toppled
             or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
         )
-        outcome = Outcome.IK_FAILED if ik_failed else score(obs, cfg.cell.bin)
+        outcome = (
+            Outcome.IK_FAILED
+            if ik_failed
+            else Outcome.NO_PATH
+            if no_path
+            else score(obs, self.layout.bin)
+        )
         if outcome is Outcome.SUCCESS:
             detail = ""
         elif not detail:
-            detail = _describe(outcome, obs, rec, cfg.cell)
+            detail = _describe(outcome, obs, rec, self.layout)
         result = self._summarise(
             index,
             sample,
@@ -439,6 +476,12 @@ class Runner:
             wall0,
             obs,
         )
+        result = dataclasses.replace(
+            result,
+            detours=self.planner.detours - detours0,
+            planning_wall_time=planning,
+            planning_cpu_time=planning_cpu,
+        )
         self.results.append(result)
         if self.keep_recordings:
             self.recordings.append(rec)
@@ -451,8 +494,11 @@ class Runner:
         """Take a target left on the shelf after failed cycle ``index`` off it (an event), so the
         slot is free again."""
         pos, _ = self.cell.target_pose(k)
-        s = self.config.cell.shelf
-        if pos[0] > s.x_front - 0.2 and pos[2] > s.board_tops[0] - 0.1:
+        local = self.layout.shelf.local(pos)
+        half = self.layout.shelf.half
+        bottom = float(self.layout.slots[:, 2].min())
+        near = abs(local[0]) < half[0] + 0.2 and abs(local[1]) < half[1] + 0.2
+        if near and pos[2] > bottom - 0.1:
             self._show(self.targets.clear(k, index + 1, f"left there by failed cycle {index}"))
 
     def _summarise(
@@ -496,7 +542,10 @@ class Runner:
             target=sample,
             target_final=tuple(round(float(x), 6) for x in obs.target_position),  # type: ignore[arg-type]
             phase_times={k: round(v, 6) for k, v in phases.items()},
+            detours=0,
             wall_time=time.perf_counter() - wall0,
+            planning_wall_time=0.0,
+            planning_cpu_time=0.0,
         )
 
     def idle(self, seconds: float, phase: str = "done") -> None:
@@ -508,10 +557,10 @@ class Runner:
         """The slot of the next cycle: fixed, or drawn from the run's generator."""
         if self.config.slot:
             return self.config.slot
-        return int(self.rng.integers(1, 10))
+        return int(self.rng.integers(1, self.layout.n_slots + 1))
 
 
-def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellConfig) -> str:
+def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellLayout) -> str:
     """One sentence on why a cycle failed."""
     p = np.round(obs.target_position, 3).tolist()
     if outcome is Outcome.COLLISION:

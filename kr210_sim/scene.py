@@ -3,8 +3,16 @@
 The robot comes from MuJoCo's own URDF import of ``assets/kr210/kr210.urdf``; this module adds
 what URDF cannot say (actuators, gravity compensation, armature, the coupled fingers, sites,
 cameras, contact parameters, a ``home`` keyframe) and the cell (floor, shelf, bin, targets,
-lights). :func:`build_scene` writes the result to ``scenes/``; the runtime loads the committed
-file with :func:`load_model`, and a test proves the committed file is current.
+lights) from a cell file's value (:class:`~kr210_sim.config.CellConfig`, see
+:mod:`kr210_sim.cells`). :func:`build_scene` writes the published cell to ``scenes/``; the
+runtime loads the committed file with :func:`load_model`, and a test proves it is current.
+
+Named elements the runtime reads (:mod:`kr210_sim.layout`): bodies ``shelf`` (geoms
+``shelf_board_<row>``, ``shelf_top``, ``shelf_back``, ``shelf_wall_left/right``,
+``shelf_divider_<k>``), ``bin`` (``bin_floor``, ``bin_wall_px/nx/py/ny``), ``obstacles``
+(``obstacle_<i>``), ``target_<k>``; sites ``slot_<n>``, ``shelf_box``, ``bin_inside``,
+``drop_<n>``; custom text ``cell_name``, ``cell_sha256`` and numerics ``randomize_*``; robot
+hull colliders ``<link>_hull`` (class ``hull``).
 
 Choices (see also the README in ``assets/kr210``):
 
@@ -29,7 +37,14 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import dressing
-from kr210_sim.config import CellConfig
+from kr210_sim.config import (
+    SHELF_BOARD_THICKNESS,
+    SHELF_POST_WIDTH,
+    BinSpec,
+    CellConfig,
+    ObstacleSpec,
+    ShelfSpec,
+)
 from kr210_sim.errors import ConfigError, SceneError
 from kr210_sim.outputs import check_folder, write_bytes_atomic
 from kr210_sim.paths import MESH_DIR, SCENE_PATH, SCENES_DIR, URDF_PATH
@@ -69,6 +84,7 @@ OFFSCREEN_SIZE = (1920, 1088)
 TARGET_RGBA = (0.1, 0.35, 0.95, 1.0)
 SHELF_RGBA = (0.55, 0.42, 0.3, 1.0)
 BIN_RGBA = (0.3, 0.32, 0.36, 1.0)
+OBSTACLE_RGBA = (0.85, 0.75, 0.2, 1.0)
 
 #: Pairs of robot bodies that must never be checked for contact (beyond parent/child).
 _EXCLUDES = (
@@ -117,11 +133,37 @@ def _box(
         rgba=list(rgba),
     )
     geom.classname = cls
+    # a class set after creation does not reapply its defaults
+    geom.conaffinity, geom.group = cls.geom.conaffinity, cls.geom.group
     return geom
 
 
+def _add_hulls(body: mujoco.MjsBody, hull: mujoco.MjsDefault) -> None:
+    """One collider per visual mesh of ``body``: the mesh itself, whose convex hull MuJoCo
+    collides with, so it encloses every visual vertex whatever the meshes look like.
+
+    Hulls are in class ``hull`` (contype 2, conaffinity 0): they touch only geoms with bit 2 in
+    their conaffinity, the cell's parts (class ``static``), never the targets, the other links
+    or the primitive colliders, so the grasp's contacts stay those of the fingers' pads and lips.
+    """
+    for geom in list(body.geoms):
+        if geom.type != mujoco.mjtGeom.mjGEOM_MESH or geom.contype != 0:
+            continue
+        h = body.add_geom(
+            name=geom.name.replace("_visual", "_hull"),
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=geom.meshname,
+            pos=list(geom.pos),
+            quat=list(geom.quat),
+        )
+        h.classname = hull
+        h.contype, h.conaffinity, h.group, h.density = 2, 0, 3, 0.0
+
+
 def _configure_robot(
-    spec: mujoco.MjSpec, visual: mujoco.MjsDefault, collision: mujoco.MjsDefault
+    spec: mujoco.MjSpec,
+    visual: mujoco.MjsDefault,
+    collision: mujoco.MjsDefault,
 ) -> None:
     """Classes, gravity compensation, armature, damping, sites and camera for the URDF robot."""
     for body_name in (*ARM_LINKS[1:], *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
@@ -131,7 +173,7 @@ def _configure_robot(
         body.gravcomp = 1.0
     for body_name in (*ARM_LINKS, *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
         body = spec.body(body_name)
-        for i, geom in enumerate(body.geoms):
+        for i, geom in enumerate(list(body.geoms)):
             if geom.contype == 0:  # URDF <visual>: the importer already made it non-colliding
                 geom.classname = visual
                 geom.contype, geom.conaffinity, geom.group = 0, 0, 2
@@ -237,6 +279,9 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )
     floor.classname = static
+    # Not bit 2: hull/plane tests cost about a fifth of the step rate; the primitive colliders
+    # still touch the floor (and the planner checks the hulls against it, kinematically).
+    floor.conaffinity = 1
     # The whole cell, from high enough to look over the bin cage's rim into it.
     overview_pos, overview_at = (-1.6, -2.2, 3.4), (1.35, 1.0, 0.95)
     world.add_camera(
@@ -245,19 +290,20 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         xyaxes=list(_look_at(overview_pos, overview_at)),
         fovy=56,
     )
-    shelf_at = (cell.shelf.x_front + 0.1, 0.0, 1.6)
+    shelf_at = (*cell.shelf.to_world((-cell.shelf.depth / 2.0 + 0.1, 0.0, 0.0))[:2], 1.6)
     shelf_pos = (0.5, -1.6, 2.3)
     world.add_camera(
         name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=62
     )
-    bin_x, bin_y = cell.bin.center_xy
+    bin_x, bin_y = cell.bin.position
     # Steep enough (about 70 deg down) to see the bin's floor over its 1 m walls.
     bin_pos = (bin_x - 0.55, bin_y + 0.75, 3.3)
     world.add_camera(
         name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.1))), fovy=45
     )
-    # Three-quarter view of the middle shelf bay: the wrist, the gripper and the grasp large.
-    slot = cell.slot(5)
+    # Three-quarter view of the middle slot (slot 5 of the published cell): the wrist, the
+    # gripper and the grasp large.
+    slot = cell.slot((cell.n_slots + 1) // 2)
     hero_at = (slot[0] - 0.3, slot[1] + 0.05, slot[2] - 0.08)
     hero_pos = (slot[0] - 0.95, slot[1] - 1.0, slot[2] + 0.45)
     world.add_camera(
@@ -265,62 +311,64 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
     )
 
 
-def _add_shelf(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
-    """Three boards, four dividers, two side walls, a back panel and a top."""
-    s = cell.shelf
+def _shelf_box(
+    body: mujoco.MjsBody,
+    shelf: ShelfSpec,
+    name: str,
+    local: tuple[float, float, float],
+    half: tuple[float, float, float],
+    static: mujoco.MjsDefault,
+) -> None:
+    """A box of the shelf, given in the shelf frame (see :class:`ShelfSpec`)."""
+    geom = _box(body, name, shelf.to_world(local), half, SHELF_RGBA, static)
+    if shelf.yaw_deg % 360.0:
+        geom.quat = _yaw_quat(shelf.yaw_deg)
+
+
+def _yaw_quat(yaw_deg: float) -> list[float]:
+    h = math.radians(yaw_deg) / 2.0
+    return [round(math.cos(h), 12), 0.0, 0.0, round(math.sin(h), 12)]
+
+
+def _add_shelf(spec: mujoco.MjSpec, shelf: ShelfSpec, static: mujoco.MjsDefault) -> None:
+    """``rows`` boards, a top, a back panel, two side walls and ``columns - 1`` dividers."""
+    s = shelf
     body = spec.worldbody.add_body(name="shelf")
-    cx, hx = s.x_front + s.depth / 2.0, s.depth / 2.0
-    half_t = s.board_thickness / 2.0
+    hx, hw = s.depth / 2.0, s.half_width
+    half_t = SHELF_BOARD_THICKNESS / 2.0
     for row, top in enumerate(s.board_tops, start=1):
-        _box(
-            body,
-            f"shelf_board_{row}",
-            (cx, 0, top - half_t),
-            (hx, s.half_width, half_t),
-            SHELF_RGBA,
-            static,
-        )
-    _box(
-        body,
-        "shelf_top",
-        (cx, 0, s.height - half_t),
-        (hx, s.half_width, half_t),
-        SHELF_RGBA,
-        static,
+        _shelf_box(body, s, f"shelf_board_{row}", (0, 0, top - half_t), (hx, hw, half_t), static)
+    _shelf_box(body, s, "shelf_top", (0, 0, s.height - half_t), (hx, hw, half_t), static)
+    _shelf_box(
+        body, s, "shelf_back", (hx - 0.01, 0, s.height / 2.0), (0.01, hw, s.height / 2.0), static
     )
-    _box(
-        body,
-        "shelf_back",
-        (s.x_front + s.depth - 0.01, 0, s.height / 2.0),
-        (0.01, s.half_width, s.height / 2.0),
-        SHELF_RGBA,
-        static,
-    )
-    for side in (-1, 1):
-        for kind, (inner, outer) in (("divider", s.divider_y), ("wall", s.post_y)):
-            y = side * (inner + outer) / 2.0
-            name = f"shelf_{kind}_{'left' if side > 0 else 'right'}"
-            _box(
-                body,
-                name,
-                (cx, y, s.height / 2.0),
-                (hx, (outer - inner) / 2.0, s.height / 2.0),
-                SHELF_RGBA,
-                static,
-            )
+    # Posts at the compartment borders, numbered 0 (left wall, seen from the robot) to
+    # ``columns`` (right wall); listed from the middle outwards, right side first.
+    half_post = (hx, SHELF_POST_WIDTH / 2.0, s.height / 2.0)
+    ys = [(s.columns / 2.0 - k) * s.column_pitch for k in range(s.columns + 1)]
+    order = sorted(range(s.columns + 1), key=lambda k: (ys[k] > 0, abs(ys[k])))
+    for k in order:
+        if k == 0:
+            name = "shelf_wall_left"
+        elif k == s.columns:
+            name = "shelf_wall_right"
+        else:
+            name = f"shelf_divider_{k}"
+        _shelf_box(body, s, name, (0, ys[k], s.height / 2.0), half_post, static)
 
 
-def _add_bin(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
+def _add_bin(spec: mujoco.MjSpec, bin_: BinSpec, static: mujoco.MjsDefault) -> None:
     """The open drop bin: a floor slab and four walls."""
-    b = cell.bin
-    bx, by = b.center_xy
-    half, w = b.outer_size / 2.0, b.wall
+    b = bin_
+    bx, by = b.position
+    hx, hy, height = b.size[0] / 2.0, b.size[1] / 2.0, b.size[2]
+    w = b.wall
     body = spec.worldbody.add_body(name="bin")
     floor = _box(
         body,
         "bin_floor",
         (bx, by, b.floor_top / 2.0),
-        (half, half, b.floor_top / 2.0),
+        (hx, hy, b.floor_top / 2.0),
         BIN_RGBA,
         static,
     )
@@ -331,11 +379,78 @@ def _add_bin(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -
     # as the targets' own, or a cylinder dropped from 1.6 m sinks 31-33 mm into the floor.
     floor.solref = list(GRASP_SOLREF)
     floor.solimp = list(GRASP_SOLIMP)
-    h = b.height / 2.0
-    _box(body, "bin_wall_px", (bx + half - w / 2, by, h), (w / 2, half, h), BIN_RGBA, static)
-    _box(body, "bin_wall_nx", (bx - half + w / 2, by, h), (w / 2, half, h), BIN_RGBA, static)
-    _box(body, "bin_wall_py", (bx, by + half - w / 2, h), (half - w, w / 2, h), BIN_RGBA, static)
-    _box(body, "bin_wall_ny", (bx, by - half + w / 2, h), (half - w, w / 2, h), BIN_RGBA, static)
+    h = height / 2.0
+    _box(body, "bin_wall_px", (bx + hx - w / 2, by, h), (w / 2, hy, h), BIN_RGBA, static)
+    _box(body, "bin_wall_nx", (bx - hx + w / 2, by, h), (w / 2, hy, h), BIN_RGBA, static)
+    _box(body, "bin_wall_py", (bx, by + hy - w / 2, h), (hx - w, w / 2, h), BIN_RGBA, static)
+    _box(body, "bin_wall_ny", (bx, by - hy + w / 2, h), (hx - w, w / 2, h), BIN_RGBA, static)
+
+
+def _add_obstacles(
+    spec: mujoco.MjSpec, obstacles: tuple[ObstacleSpec, ...], static: mujoco.MjsDefault
+) -> None:
+    """The cell's boxes, ``obstacle_1`` ... in the body ``obstacles`` (none: no body)."""
+    if not obstacles:
+        return
+    body = spec.worldbody.add_body(name="obstacles")
+    for i, o in enumerate(obstacles, start=1):
+        half = tuple(v / 2.0 for v in o.size)
+        geom = _box(body, f"obstacle_{i}", o.position, half, OBSTACLE_RGBA, static)
+        if o.yaw_deg % 360.0:
+            geom.quat = _yaw_quat(o.yaw_deg)
+
+
+def _add_cell_sites(spec: mujoco.MjSpec, cell: CellConfig) -> None:
+    """The named sites the runner, planner and scoring read the layout from (group 5, hidden).
+
+    * ``slot_<n>``: slot n's point on its board (x, y of the compartment centre, z of the board
+      top), numbered as :class:`ShelfSpec` says;
+    * ``shelf_box``: a box site over the shelf's outer volume (its frame is the shelf frame);
+    * ``bin_inside``: a box site over the bin's inner volume, floor top to rim;
+    * ``drop_<n>``: where cylinder n of a filling is released (x, y; z at the rim).
+    """
+    s, b = cell.shelf, cell.bin
+    shelf, bin_ = spec.body("shelf"), spec.body("bin")
+    quat = _yaw_quat(s.yaw_deg) if s.yaw_deg % 360.0 else [1.0, 0.0, 0.0, 0.0]
+    for n in range(1, cell.n_slots + 1):
+        shelf.add_site(
+            name=f"slot_{n}",
+            pos=[float(v) for v in s.to_world(s.slot_local(n))],
+            quat=quat,
+            size=[0.02, 0, 0],
+            group=5,
+        )
+    shelf.add_site(
+        name="shelf_box",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        pos=[float(v) for v in s.to_world((0.0, 0.0, s.height / 2.0))],
+        quat=quat,
+        size=[s.depth / 2.0, s.half_width, s.height / 2.0],
+        group=5,
+    )
+    bx, by = b.position
+    (ix, iy), rim = b.inner_half, b.size[2]
+    bin_.add_site(
+        name="bin_inside",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        pos=[bx, by, (b.floor_top + rim) / 2.0],
+        size=[ix, iy, (rim - b.floor_top) / 2.0],
+        group=5,
+    )
+    for n, (dx, dy) in enumerate(b.drop_offsets(), start=1):
+        bin_.add_site(name=f"drop_{n}", pos=[bx + dx, by + dy, rim], size=[0.02, 0, 0], group=5)
+
+
+def _add_cell_info(spec: mujoco.MjSpec, cell: CellConfig) -> None:
+    """The cell's name, its file's hash and the randomisation ranges, as custom model data."""
+    spec.add_text(name="cell_name", data=cell.name)
+    spec.add_text(name="cell_sha256", data=cell.sha256 or "none")
+    r = cell.randomization
+    spec.add_numeric(name="randomize_xy_offset", data=[r.xy_offset])
+    # in degrees: the MJCF keeps 6 digits, which would turn pi into 3.14159
+    spec.add_numeric(name="randomize_yaw_deg", data=[round(math.degrees(a), 9) for a in r.yaw])
+    for key in ("radius", "length", "mass", "friction"):
+        spec.add_numeric(name=f"randomize_{key}", data=list(getattr(r, key)))
 
 
 def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
@@ -363,8 +478,14 @@ def _dress(
     spec: mujoco.MjSpec, cell: CellConfig, visual: mujoco.MjsDefault, mesh_dir: Path | str
 ) -> None:
     """The look of robot and cell (visual-only geoms, materials, lights): see
-    :mod:`kr210_sim.dressing`."""
+    :mod:`kr210_sim.dressing`. The shelf is dressed in its own frame (a child body at its
+    footprint's centre, turned by its yaw), so any cell's shelf gets its racking."""
     s, b = cell.shelf, cell.bin
+    shelf_corners = [
+        s.to_world((sx * s.depth / 2, sy * s.half_width, 0.0)) for sx in (-1, 1) for sy in (-1, 1)
+    ]
+    xs = [float(c[0]) for c in shelf_corners] + [b.position[0] + d * b.size[0] / 2 for d in (-1, 1)]
+    ys = [float(c[1]) for c in shelf_corners] + [b.position[1] + d * b.size[1] / 2 for d in (-1, 1)]
     dressing.add_materials(spec)
     dressing.dress_robot(spec, visual, mesh_dir)
     dressing.dress_floor(
@@ -372,35 +493,63 @@ def _dress(
         visual,
         robot_xy=(0.0, 0.0),
         plate_half=0.6,
-        marked=(-1.3, -1.6, s.x_front + s.depth + 0.25, b.center_xy[1] + b.outer_size / 2 + 0.4),
-        hall=(-6.0, -6.0, 6.5, 6.0),
+        marked=(
+            min(-1.3, min(xs) - 0.25),
+            min(-1.6, min(ys) - 0.25),
+            max(xs) + 0.25,
+            max(ys) + 0.4,
+        ),
+        hall=(
+            min(-6.0, min(xs) - 2.0),
+            min(-6.0, min(ys) - 2.0),
+            max(6.5, max(xs) + 2.0),
+            max(6.0, max(ys) + 2.0),
+        ),
     )
     shelf = spec.body("shelf")
     dressing.hide(shelf)
+    frame = shelf.add_body(name="shelf_look", pos=[s.position[0], s.position[1], 0.0])
+    if s.yaw_deg % 360.0:
+        frame.quat = _yaw_quat(s.yaw_deg)
     dressing.dress_shelf(
         spec,
-        shelf,
+        frame,
         visual,
-        x_front=s.x_front,
+        x_front=-s.depth / 2.0,
         depth=s.depth,
         half_width=s.half_width,
         height=s.height,
         board_tops=s.board_tops,
-        board_thickness=s.board_thickness,
-        upright_y=[
-            sign * (inner + outer) / 2.0
-            for sign, (inner, outer) in (
-                (-1, s.post_y),
-                (-1, s.divider_y),
-                (1, s.divider_y),
-                (1, s.post_y),
-            )
-        ],
+        board_thickness=SHELF_BOARD_THICKNESS,
+        upright_y=[(s.columns / 2.0 - k) * s.column_pitch for k in range(s.columns + 1)],
     )
     bin_body = spec.body("bin")
     dressing.hide(bin_body)
-    dressing.dress_bin(spec, bin_body, visual, b.center_xy, b.outer_size, b.height, b.floor_top)
+    dressing.dress_bin(
+        spec, bin_body, visual, b.position, (b.size[0], b.size[1]), b.size[2], b.floor_top
+    )
     dressing.add_lights(spec, center=(1.0, 1.0, 1.0))
+
+
+#: The cell parts the contact monitor watches, in the order of ``env_contact_sensors``.
+ENV_PARTS = ("shelf", "bin", "obstacles", "floor")
+
+
+def _add_contact_sensors(spec: mujoco.MjSpec, obstacles: bool) -> None:
+    """How many contacts the moving robot (link_1's subtree) has with each cell part (shelf,
+    bin, obstacles, floor), read by the control loop every tick."""
+    for env in ENV_PARTS:
+        if env == "obstacles" and not obstacles:
+            continue
+        spec.add_sensor(
+            name=f"robot_{env}_contacts",
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_XBODY,
+            objname="link_1",
+            reftype=mujoco.mjtObj.mjOBJ_GEOM if env == "floor" else mujoco.mjtObj.mjOBJ_BODY,
+            refname=env,
+            intprm=[1, 0, 1],  # data = "found" (count), no reduction
+        )
 
 
 def build_spec(
@@ -421,7 +570,10 @@ def build_spec(
     Raises:
         SceneError: When the URDF cannot be read or compiled.
     """
-    cell = cell or CellConfig()
+    if cell is None:
+        from kr210_sim.cells import published_cell
+
+        cell = published_cell()
     urdf_path = Path(urdf_path)
     if not urdf_path.is_file():
         raise SceneError(f"URDF not found: {urdf_path}")
@@ -448,27 +600,25 @@ def build_spec(
     visual.geom.density = 0
     collision = spec.add_default("collision", spec.default)
     collision.geom.group = 3
+    hull = spec.add_default("hull", spec.default)
+    hull.geom.contype, hull.geom.conaffinity, hull.geom.group = 2, 0, 3
     static = spec.add_default("static", spec.default)
     static.geom.group = 0
+    static.geom.conaffinity = 3  # bit 2: the robot's hull colliders touch the cell's parts
 
     _configure_robot(spec, visual, collision)
     _add_world(spec, cell, static)
-    _add_shelf(spec, cell, static)
-    _add_bin(spec, cell, static)
+    _add_shelf(spec, cell.shelf, static)
+    _add_bin(spec, cell.bin, static)
+    _add_obstacles(spec, cell.obstacles, static)
     _add_targets(spec, cell)
     _dress(spec, cell, visual, mesh_dir)
-    # Contact sensors: how many contacts the moving robot (link_1's subtree) has with the shelf
-    # and with the bin, read by the control loop every tick.
-    for env in ("shelf", "bin"):
-        spec.add_sensor(
-            name=f"robot_{env}_contacts",
-            type=mujoco.mjtSensor.mjSENS_CONTACT,
-            objtype=mujoco.mjtObj.mjOBJ_XBODY,
-            objname="link_1",
-            reftype=mujoco.mjtObj.mjOBJ_BODY,
-            refname=env,
-            intprm=[1, 0, 1],  # data = "found" (count), no reduction
-        )
+    # Hulls after the dressing: every visual mesh part of a link (each finish) gets its own.
+    for body_name in (*ARM_LINKS, *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
+        _add_hulls(spec.body(body_name), hull)
+    _add_cell_sites(spec, cell)
+    _add_cell_info(spec, cell)
+    _add_contact_sensors(spec, bool(cell.obstacles))
 
     try:
         model = spec.compile()
@@ -507,18 +657,24 @@ def build_scene(out_dir: Path | str = SCENES_DIR, cell: CellConfig | None = None
     path = out / SCENE_PATH.name
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder")
-    spec = build_spec(cell)
-    abs_dir = spec.meshdir
-    xml = spec.to_xml()
+    xml = scene_xml(cell)
+    abs_dir = str(MESH_DIR.resolve())
     rel_dir = Path(_relpath(MESH_DIR, out)).as_posix()
     xml = xml.replace(f'meshdir="{abs_dir}"', f'meshdir="{rel_dir}"', 1)
     if rel_dir not in xml:
         raise SceneError("could not make the mesh folder relative in the generated MJCF")
     header = (
         "<!-- Generated by `python -m kr210_sim build-scene` from assets/kr210/kr210.urdf and "
-        "kr210_sim/config.py. Do not edit by hand. -->\n"
+        "scenes/cells/published.toml. Do not edit by hand. -->\n"
     )
     return [write_bytes_atomic(path, (header + xml).encode())]
+
+
+def scene_xml(cell: CellConfig | None = None) -> str:
+    """The cell's MJCF text, its mesh folder an absolute path (see :func:`build_spec`)."""
+    spec = build_spec(cell)
+    spec.meshdir = str(MESH_DIR.resolve())
+    return str(spec.to_xml())
 
 
 def _relpath(target: Path, start: Path) -> str:
@@ -562,11 +718,14 @@ class CellHandles:
         robot_geoms: Collision geom ids of the robot.
         shelf_geoms: Geom ids of the shelf.
         bin_geoms: Geom ids of the bin.
+        env_geoms: Geom ids of every cell part the robot must not touch (shelf, bin, obstacles,
+            floor).
         target_bodies: Body ids of the targets.
         target_geoms: Geom ids of the targets.
         target_qpos: qpos address of each target's free joint.
         target_dof: dof address of each target's free joint.
-        env_contact_sensors: sensordata addresses of the robot-shelf and robot-bin counts.
+        env_contact_sensors: sensordata addresses of the robot's contact counts with each cell
+            part (:data:`ENV_PARTS` that the model has).
     """
 
     arm_qpos: npt.NDArray[np.int_]
@@ -581,11 +740,12 @@ class CellHandles:
     robot_geoms: frozenset[int]
     shelf_geoms: frozenset[int]
     bin_geoms: frozenset[int]
+    env_geoms: frozenset[int]
     target_bodies: npt.NDArray[np.int_]
     target_geoms: npt.NDArray[np.int_]
     target_qpos: npt.NDArray[np.int_]
     target_dof: npt.NDArray[np.int_]
-    env_contact_sensors: tuple[int, int]
+    env_contact_sensors: tuple[int, ...]
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel) -> CellHandles:
@@ -629,6 +789,18 @@ class CellHandles:
             raise SceneError("scene has no target cylinders (target_0 ...)")
         target_joints = [jid(f"{target_name(i)}_joint") for i in range(len(targets))]
         gb = model.geom_bodyid
+        env_bodies = {shelf, bin_}
+        obstacles = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "obstacles")
+        if obstacles >= 0:
+            env_bodies.add(int(obstacles))
+        floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        sensors = []
+        for env in ENV_PARTS:
+            i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")
+            if i >= 0:
+                sensors.append(int(model.sensor_adr[i]))
+            elif env in ("shelf", "bin"):
+                oid(mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")  # raises
         return cls(
             arm_qpos=np.array([model.jnt_qposadr[j] for j in arm]),
             arm_dof=np.array([model.jnt_dofadr[j] for j in arm]),
@@ -652,14 +824,12 @@ class CellHandles:
             ),
             shelf_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == shelf),
             bin_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == bin_),
+            env_geoms=frozenset(g for g in range(model.ngeom) if gb[g] in env_bodies or g == floor),
             target_bodies=np.array(targets),
             target_geoms=np.array(
                 [oid(mujoco.mjtObj.mjOBJ_GEOM, target_name(i)) for i in range(len(targets))]
             ),
             target_qpos=np.array([model.jnt_qposadr[j] for j in target_joints]),
             target_dof=np.array([model.jnt_dofadr[j] for j in target_joints]),
-            env_contact_sensors=tuple(  # type: ignore[arg-type]
-                int(model.sensor_adr[oid(mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")])
-                for env in ("shelf", "bin")
-            ),
+            env_contact_sensors=tuple(sensors),
         )

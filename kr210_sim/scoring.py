@@ -12,7 +12,7 @@ from enum import StrEnum
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.config import BinSpec
+from kr210_sim.layout import BinBox
 
 
 class Outcome(StrEnum):
@@ -27,6 +27,8 @@ class Outcome(StrEnum):
     MISSED_BIN = "missed_bin"
     #: The user's IK function (``--ik``) gave an unusable answer for a pose the plan needs.
     IK_FAILED = "ik_failed"
+    #: No collision-free plan exists for a move of the cycle (scored before the arm moves).
+    NO_PATH = "no_path"
 
 
 #: Largest linear speed of a target counted as still [m/s].
@@ -83,37 +85,37 @@ class CycleObservation:
 TOPPLED_TILT_DEG = 30.0
 
 
-def in_bin(position: npt.ArrayLike, bin_spec: BinSpec, margin: float = 0.0) -> bool:
+def in_bin(position: npt.ArrayLike, bin_box: BinBox, margin: float = 0.0) -> bool:
     """Whether a point lies inside the bin's walls and below its rim.
 
     Args:
         position: Point in [m], shape (3,).
-        bin_spec: The bin.
+        bin_box: The bin's inside (as the model holds it).
         margin: Extra clearance required from the inner walls in [m].
     """
     p = np.asarray(position, dtype=np.float64)
-    cx, cy = bin_spec.center_xy
-    half = bin_spec.inner_half - margin
+    cx, cy = bin_box.center
+    hx, hy = bin_box.inner_half
     return bool(
-        abs(p[0] - cx) < half
-        and abs(p[1] - cy) < half
-        and bin_spec.floor_top < p[2] < bin_spec.height
+        abs(p[0] - cx) < hx - margin
+        and abs(p[1] - cy) < hy - margin
+        and bin_box.floor_top < p[2] < bin_box.rim
     )
 
 
-def at_rest_in_bin(position: npt.ArrayLike, rested_for: float, bin_spec: BinSpec) -> bool:
+def at_rest_in_bin(position: npt.ArrayLike, rested_for: float, bin_box: BinBox) -> bool:
     """The target's part of a success: its centre inside the bin (:func:`in_bin`) and still
     (:func:`is_still`) for :data:`REST_WINDOW` [s] in a row.
 
     Args:
         position: Target centre [m], shape (3,).
         rested_for: How long it has been still [s].
-        bin_spec: The bin.
+        bin_box: The bin.
     """
-    return in_bin(position, bin_spec) and rested_for >= REST_WINDOW - 1e-9
+    return in_bin(position, bin_box) and rested_for >= REST_WINDOW - 1e-9
 
 
-def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
+def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
     """Score a cycle.
 
     A cycle succeeds when the target rests inside the bin (centre inside the walls, below the
@@ -124,7 +126,7 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
 
     Args:
         obs: What happened.
-        bin_spec: The bin.
+        bin_box: The bin's inside.
 
     Returns:
         The outcome.
@@ -137,6 +139,6 @@ def score(obs: CycleObservation, bin_spec: BinSpec) -> Outcome:
         return Outcome.KNOCKED_OVER if obs.target_toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
-    if not at_rest_in_bin(obs.target_position, obs.rested_for, bin_spec):
+    if not at_rest_in_bin(obs.target_position, obs.rested_for, bin_box):
         return Outcome.MISSED_BIN
     return Outcome.SUCCESS

@@ -17,8 +17,9 @@ from enum import StrEnum
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.config import BinSpec, CellConfig, TargetSpec
+from kr210_sim.config import TargetSpec
 from kr210_sim.control import Cell
+from kr210_sim.layout import BinBox, CellLayout
 from kr210_sim.scoring import in_bin
 
 import mujoco  # isort: skip
@@ -84,20 +85,20 @@ class TargetPool:
 
     Args:
         cell: The simulated cell (its model holds the cylinders ``target_0`` ...).
-        config: The cell layout (where spares are parked, the bin).
+        layout: The cell's layout as the model holds it (where spares are parked, the bin).
     """
 
-    def __init__(self, cell: Cell, config: CellConfig) -> None:
+    def __init__(self, cell: Cell, layout: CellLayout) -> None:
         self.cell = cell
-        self.config = config
+        self.layout = layout
         self.spare = list(range(len(cell.handles.target_bodies)))
         self.in_play: list[int] = []
         self.events: list[Event] = []
 
     @property
-    def bin(self) -> BinSpec:
-        """The bin."""
-        return self.config.bin
+    def bin(self) -> BinBox:
+        """The bin's inside."""
+        return self.layout.bin
 
     def in_bin_count(self) -> int:
         """Cylinders lying in the bin now."""
@@ -116,7 +117,7 @@ class TargetPool:
         moved = tuple(self.in_play)
         in_bin_n = self.in_bin_count()
         for k in moved:
-            self._place(k, self.config.park_position(k))
+            self._place(k, self.layout.park[k])
         mujoco.mj_forward(self.cell.model, self.cell.data)
         self.spare = sorted(self.spare + list(moved))
         self.in_play = []
@@ -149,7 +150,7 @@ class TargetPool:
     def clear(self, k: int, before_cycle: int, reason: str) -> Event:
         """Take cylinder ``k`` off the shelf to its parking spot (it stays out of play until the
         next restock), as an event."""
-        self._place(k, self.config.park_position(k))
+        self._place(k, self.layout.park[k])
         mujoco.mj_forward(self.cell.model, self.cell.data)
         event = Event(
             EventKind.SHELF_CLEARED,

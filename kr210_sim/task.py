@@ -23,18 +23,29 @@ Sequence (phase names are what the runner records and the video shows)::
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim import kinematics
-from kr210_sim.config import MotionConfig
-from kr210_sim.errors import PlanningError, UnreachablePoseError
+from kr210_sim.config import MotionConfig, TargetSpec
+from kr210_sim.errors import NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.ik_plugin import CheckedIk, UserIk
 from kr210_sim.robot import RobotDescription
-from kr210_sim.trajectory import JointLimits, Trajectory, plan_cartesian_line, plan_ptp
+from kr210_sim.trajectory import (
+    ChainTrajectory,
+    JointLimits,
+    Trajectory,
+    plan_cartesian_line,
+    plan_ptp,
+)
+
+if TYPE_CHECKING:
+    from kr210_sim.collide import CollisionChecker, Hit
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -130,16 +141,96 @@ class Planner:
         ik: A user's IK function to plan with instead of :func:`kinematics.nearest`; every
             answer is checked (:class:`~kr210_sim.ik_plugin.CheckedIk`) and a bad one raises
             :class:`~kr210_sim.errors.IkFailedError`.
+        checker: Checks every move against the cell (:mod:`kr210_sim.collide`); a joint-space
+            move that collides is planned again through via points (:meth:`detour`), and a
+            move with no collision-free plan raises :class:`~kr210_sim.errors.NoPathError`.
+            None: moves are not checked.
     """
 
     def __init__(
-        self, robot: RobotDescription, motion: MotionConfig, ik: UserIk | None = None
+        self,
+        robot: RobotDescription,
+        motion: MotionConfig,
+        ik: UserIk | None = None,
+        checker: CollisionChecker | None = None,
     ) -> None:
         self.robot = robot
         self.motion = motion
         self.limits = JointLimits.from_robot(robot, motion)
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
         self.user_ik = CheckedIk(ik) if ik is not None else None
+        self.checker = checker
+        #: Moves planned through via points so far.
+        self.detours = 0
+        self._returns: dict[bytes, Move] = {}
+
+    # -- collision checks ------------------------------------------------------------------
+    def held_offset(self, radius: float) -> FloatArray:
+        """Centre of a held target in the gripper_link frame [m]."""
+        return np.array([grasp_depth(self.robot, radius), 0.0, -self.motion.grasp_dz])
+
+    def _hit(self, move: Move, held: TargetSpec | None) -> Hit | None:
+        if self.checker is None:
+            return None
+        from kr210_sim.collide import check_samples
+
+        offset = None if held is None else self.held_offset(held.radius)
+        return self.checker.first_hit(check_samples(move.trajectory), held, offset)
+
+    def checked(self, move: Move, held: TargetSpec | None = None) -> Move:
+        """``move`` if it keeps clear of the cell, else a detour (joint-space moves only).
+
+        Raises:
+            NoPathError: When the move collides and no detour clears the cell.
+        """
+        hit = self._hit(move, held)
+        if hit is None:
+            return move
+        if move.kind == "ptp":
+            tried = 0
+            for vias in self._via_candidates(move.trajectory.q_start, move.q_end):
+                tried += 1
+                try:
+                    points = [move.trajectory.q_start, *vias, move.q_end]
+                    segments: list[Trajectory] = [
+                        plan_ptp(a, b, self.limits) for a, b in itertools.pairwise(points)
+                    ]
+                except (PlanningError, UnreachablePoseError):
+                    continue
+                candidate = Move(move.phase, "ptp", ChainTrajectory(segments))
+                if self._hit(candidate, held) is None:
+                    self.detours += 1
+                    return candidate
+            raise NoPathError(
+                f"{move.phase} move: {hit.describe()}, and none of {tried} detours is clear"
+            )
+        raise NoPathError(f"{move.phase} straight-line move: {hit.describe()}")
+
+    def _via_candidates(self, q0: FloatArray, q1: FloatArray) -> list[list[FloatArray]]:
+        """Via points to try, in order: pull in towards the base (at the start's and the goal's
+        heading), rise over, and pull in higher; every one a level, radial gripper pose."""
+        p0, p1 = kinematics.forward(q0)[:3, 3], kinematics.forward(q1)[:3, 3]
+        a0, a1 = math.atan2(p0[1], p0[0]), math.atan2(p1[1], p1[0])
+        r0, r1 = math.hypot(p0[0], p0[1]), math.hypot(p1[0], p1[1])
+        z = max(p0[2], p1[2])
+        plans: list[list[tuple[float, float, float]]] = []
+        for r in (1.4, 1.1):
+            for zz in (z, z + 0.4, 2.3):
+                plans.append([(a0, r, zz), (a1, r, zz)])
+        for zz in (z + 0.5, 2.7):
+            plans.append([(a0, r0, zz), (a1, r1, zz)])
+        out: list[list[FloatArray]] = []
+        for plan in plans:
+            q_ref, vias = q0, []
+            try:
+                for a, r, zz in plan:
+                    T = gripper_pose((r * math.cos(a), r * math.sin(a), zz), a)
+                    q_ref = kinematics.nearest(T, q_ref)
+                    vias.append(q_ref)
+            except UnreachablePoseError:
+                continue
+            out.append(vias)
+        return out
 
     def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray) -> Move:
         """A joint-space move at rest at both ends."""
@@ -192,7 +283,11 @@ class Planner:
         return T_standoff, T_grasp, T_lift, T_back
 
     def plan_grasp(
-        self, q_start: FloatArray, target_position: npt.ArrayLike, target_radius: float
+        self,
+        q_start: FloatArray,
+        target_position: npt.ArrayLike,
+        target_radius: float,
+        held_length: float | None = None,
     ) -> GraspPlan:
         """Plan ready -> standoff -> grasp -> lift -> retreat for a target.
 
@@ -200,9 +295,11 @@ class Planner:
             q_start: Arm joint state at the start [rad].
             target_position: Observed target centre [m].
             target_radius: Target radius [m].
+            held_length: Target length [m], for the collision checks of the held target.
 
         Raises:
             UnreachablePoseError: When a pose has no IK solution inside the limits.
+            NoPathError: When a move collides with the cell and no detour is clear.
             IkFailedError: When the user's IK gives an unusable answer.
             PlanningError: When a trajectory breaks a limit.
         """
@@ -212,6 +309,12 @@ class Planner:
         approach_lin = self.lin("approach", q_standoff, T_grasp)
         lift = self.lin("lift", approach_lin.q_end, T_lift)
         retreat = self.lin("retreat", lift.q_end, T_back)
+        if self.checker is not None:
+            held = TargetSpec(radius=target_radius, length=held_length or 0.25)
+            approach_ptp = self.checked(approach_ptp)
+            self.checked(approach_lin)
+            self.checked(lift)  # the target starts on its board: the arm alone is checked
+            self.checked(retreat, held)
         return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat)
 
     def drop_pose(self, drop_xy: npt.ArrayLike, target_radius: float) -> FloatArray:
@@ -224,14 +327,26 @@ class Planner:
         )
         return gripper_pose(p, yaw)
 
-    def plan_carry(self, q_start: FloatArray, drop_xy: npt.ArrayLike, target_radius: float) -> Move:
-        """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]."""
+    def plan_carry(
+        self,
+        q_start: FloatArray,
+        drop_xy: npt.ArrayLike,
+        target_radius: float,
+        target_length: float = 0.25,
+    ) -> Move:
+        """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]
+        (checked with the target held, detoured if it must be)."""
         q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop")
-        return self.ptp("carry", q_start, q_drop)
+        held = TargetSpec(radius=target_radius, length=target_length)
+        return self.checked(self.ptp("carry", q_start, q_drop), held)
 
     def plan_return(self, q_start: FloatArray) -> Move:
-        """Joint-space move from ``q_start`` back to the ready pose."""
-        return self.ptp("return", q_start, self.ready_q)
+        """Joint-space move from ``q_start`` back to the ready pose (checked, detoured if it
+        must be; the last one is remembered, so planning it ahead costs nothing later)."""
+        key = np.asarray(q_start, dtype=np.float64).tobytes()
+        if key not in self._returns:
+            self._returns = {key: self.checked(self.ptp("return", q_start, self.ready_q))}
+        return self._returns[key]
 
     def check_ready(self) -> None:
         """Raise PlanningError when the configured ready pose breaks a joint limit."""

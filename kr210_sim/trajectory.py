@@ -425,3 +425,33 @@ def check_trajectory(traj: Trajectory, limits: JointLimits, dt: float = 0.002) -
         acceleration_ratio=float((np.abs(qdd) / limits.a_max).max()),
         max_step=step,
     )
+
+
+class ChainTrajectory(Trajectory):
+    """Trajectories run one after the other (each at rest at its ends): a move through via
+    points.
+
+    Args:
+        segments: The pieces, each starting where the one before ends.
+    """
+
+    def __init__(self, segments: list[Trajectory]) -> None:
+        if not segments:
+            raise PlanningError("a chain needs at least one segment")
+        self.segments = segments
+        self.starts = np.cumsum([0.0] + [s.duration for s in segments[:-1]])
+        self.duration = float(self.starts[-1] + segments[-1].duration)
+
+    def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        i = max(int(np.searchsorted(self.starts, t, side="right")) - 1, 0)
+        return self.segments[i].sample(t - float(self.starts[i]))
+
+    def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        t = np.asarray(ts, dtype=np.float64)
+        idx = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.segments) - 1)
+        q, qd, qdd = np.zeros((len(t), 6)), np.zeros((len(t), 6)), np.zeros((len(t), 6))
+        for i, seg in enumerate(self.segments):
+            sel = idx == i
+            if sel.any():
+                q[sel], qd[sel], qdd[sel] = seg.sample_many(t[sel] - self.starts[i])
+        return q, qd, qdd

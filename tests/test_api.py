@@ -86,7 +86,7 @@ def test_a_callable_ik_that_misses_fails_its_cycle_not_the_call() -> None:
     ("kwargs", "error", "message"),
     [
         ({"cycles": 0}, ConfigError, "cycles must be a whole number from 1 to 10000"),
-        ({"slot": 12}, ConfigError, "slot must be 0 (random) or 1-9, got 12"),
+        ({"slot": 12}, ConfigError, "slot must be 0 (random) or 1-9 in cell 'published', got 12"),
         ({"seed": -1}, ConfigError, "seed must be a whole number >= 0, got -1"),
         ({"randomize": "yes"}, ConfigError, "randomize must be True or False"),
         ({"ik": 3}, IkSpecError, "ik must be a SPEC string or a callable"),

@@ -24,7 +24,7 @@ from kr210_sim.report import strip_wall
         (["run", "--cycles", "0"], "must be at least 1"),
         (["run", "--cycles", "-3"], "must be at least 1"),
         (["run", "--cycles", "abc"], "expected a whole number"),
-        (["run", "--slot", "10"], "must be 0 (random) or 1-9"),
+        (["run", "--slot", "26"], "at most 25"),
         (["run", "--min-success", "1.5"], "must be in [0, 1]"),
         (["run", "--seed", "-1"], "must be >= 0"),
         (["fly"], "invalid choice"),

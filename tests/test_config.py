@@ -5,19 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kr210_sim.cells import published_cell
 from kr210_sim.config import (
-    BinSpec,
     CellConfig,
     MotionConfig,
     RandomizationSpec,
-    ShelfSpec,
     TargetSpec,
 )
 from kr210_sim.errors import ConfigError
 
 
 def test_published_slots_sit_on_their_boards() -> None:
-    cell = CellConfig()
+    cell = published_cell()
     for number in range(1, 10):
         p = cell.slot(number)
         row = (number - 1) // 3
@@ -27,25 +26,18 @@ def test_published_slots_sit_on_their_boards() -> None:
         assert p[2] - cell.target.length / 2 == pytest.approx(cell.shelf.board_tops[row], abs=1e-9)
 
 
-def test_slots_inside_compartments() -> None:
-    cell = CellConfig()
-    inner = cell.shelf.divider_y[0]
-    for number in range(1, 10):
-        y = cell.slot(number)[1]
-        r = cell.target.radius
-        assert abs(y) + r < inner or (
-            abs(y) - r > cell.shelf.divider_y[1] and abs(y) + r < cell.shelf.post_y[0]
-        )
+def test_published_figures() -> None:
+    cell = published_cell()
+    assert cell.shelf.board_tops == (0.789, 1.556, 2.322)
+    assert cell.shelf.half_width == 1.4
+    assert cell.bin.inner_half == (0.44, 0.44)
+    assert cell.bin.drop_offsets()[:4] == [(0.0, 0.0), (0.22, 0.0), (-0.22, 0.0), (0.0, 0.22)]
 
 
 @pytest.mark.parametrize("bad", [0, 10, -1])
 def test_slot_out_of_range(bad: int) -> None:
     with pytest.raises(ConfigError, match="slot must be 1-9"):
-        CellConfig().slot(bad)
-
-
-def test_bin_inner_half() -> None:
-    assert BinSpec().inner_half == pytest.approx(0.44)
+        published_cell().slot(bad)
 
 
 @pytest.mark.parametrize(
@@ -53,11 +45,10 @@ def test_bin_inner_half() -> None:
     [
         lambda: TargetSpec(radius=0.0),
         lambda: TargetSpec(mass=float("nan")),
-        lambda: ShelfSpec(depth=-1.0),
         lambda: MotionConfig(lin_speed=0.0),
         lambda: RandomizationSpec(mass=(0.5, 0.02)),
         lambda: RandomizationSpec(xy_offset=-0.01),
-        lambda: CellConfig(n_targets=0),
+        lambda: CellConfig("x", published_cell().shelf, published_cell().bin, n_targets=0),
     ],
 )
 def test_invalid_values_raise(factory: object) -> None:
@@ -66,7 +57,7 @@ def test_invalid_values_raise(factory: object) -> None:
 
 
 def test_park_positions_are_distinct_and_on_floor() -> None:
-    cell = CellConfig()
+    cell = published_cell()
     parks = np.array([cell.park_position(k) for k in range(cell.n_targets)])
     assert len({tuple(p) for p in parks.round(6)}) == cell.n_targets
     assert np.allclose(parks[:, 2], cell.target.length / 2)

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.config import CellConfig
+from kr210_sim.cells import PUBLISHED_CELL, load_cell
 from kr210_sim.render import make_renderer, render_frame
 from kr210_sim.robot import ARM_LINKS
 from kr210_sim.scene import CellHandles, load_model
@@ -81,7 +81,7 @@ def test_spare_cylinders_park_out_of_every_fixed_camera(model: mujoco.MjModel) -
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
-    cell = CellConfig()
+    cell = load_cell(PUBLISHED_CELL)
     names = [model.camera(i).name for i in range(model.ncam)]
     assert {"overview", "shelf", "bin", "gripper", "hero"} <= set(names)
     for cam, name in enumerate(names):
@@ -92,7 +92,7 @@ def test_spare_cylinders_park_out_of_every_fixed_camera(model: mujoco.MjModel) -
             for dz in (-0.125, 0.125):
                 assert not _in_view(model, data, cam, p + np.array([0.0, 0.0, dz])), (name, k)
         if name == "overview":
-            assert _in_view(model, data, cam, np.array([*cell.bin.center_xy, 0.5]))
+            assert _in_view(model, data, cam, np.array([*cell.bin.position, 0.5]))
 
 
 def test_a_cylinder_on_the_bin_floor_shows_in_the_overview(model: mujoco.MjModel) -> None:
@@ -100,9 +100,9 @@ def test_a_cylinder_on_the_bin_floor_shows_in_the_overview(model: mujoco.MjModel
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     h = CellHandles.from_model(model)
-    cell = CellConfig()
+    cell = load_cell(PUBLISHED_CELL)
     a = int(h.target_qpos[0])
-    bx, by = cell.bin.center_xy
+    bx, by = cell.bin.position
     data.qpos[a : a + 7] = (bx + 0.2, by - 0.2, cell.bin.floor_top + 0.05, 0.7071, 0.7071, 0, 0)
     mujoco.mj_forward(model, data)
     renderer = make_renderer(model, 320, 240)

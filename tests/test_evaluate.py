@@ -220,3 +220,17 @@ def test_evaluate_plans_with_a_user_ik_in_the_workers(tmp_path: Path) -> None:
     assert s["successes"] == 0 and s["failures"]["ik_failed"]["count"] == 2
     assert out.report["config"]["ik"] == spec
     assert out.report["config"]["replay"].endswith(f"--ik {spec}")
+
+
+def test_an_evaluation_of_another_cell_runs_in_it_and_says_how_to_replay(tmp_path: Path) -> None:
+    from kr210_sim.cells import PUBLISHED_CELL
+
+    cell = PUBLISHED_CELL.parent / "grid_4x2.toml"
+    out = evaluate(EvalConfig(episodes=2, seed=1, cell=cell), report=tmp_path / "e.json")
+    report = out.report
+    assert not out.interrupted and report["summary"]["successes"] == 2
+    assert report["config"]["cell"] == str(cell)
+    assert report["config"]["replay"].endswith(f"--cell {cell}")
+    records = _lines(tmp_path / "e.episodes.jsonl")
+    assert all(1 <= e["slot"] <= 8 for e in records)
+    assert {e["target"]["position"][1] for e in records} <= {0.15, -0.95}

@@ -45,7 +45,7 @@ def test_reset_spawns_what_run_spawns_for_the_seed(joint_env: PickPlaceEnv) -> N
     for seed, randomize in ((0, False), (7, True), (123, True)):
         config = RunConfig(cycles=1, seed=seed, randomize=randomize)
         runner = Runner(config)
-        expected = sample_target(runner.rng, config, runner.slot_for_cycle())
+        expected = sample_target(runner.rng, config, runner.layout, runner.slot_for_cycle())
         _, info = joint_env.reset(seed=seed, options={"randomize": randomize})
         assert joint_env.target == expected and info["slot"] == expected.slot
         p, _ = joint_env.cell.target_pose()
@@ -61,7 +61,7 @@ def test_observation_layout(joint_env: PickPlaceEnv) -> None:
     assert 0.1 < o[12] < 0.3  # the open finger gap [m]
     assert np.allclose(o[13:16], joint_env.cell.gripper_pose()[:3, 3])
     assert np.isclose(np.linalg.norm(o[16:20]), 1.0)
-    slot4 = joint_env.run_config.cell.slot(4)
+    slot4 = joint_env.layout.slots[3]
     assert np.allclose(obs["achieved_goal"][:2], slot4[:2], atol=2e-3)
     assert in_bin(obs["desired_goal"], joint_env.bin)
 

@@ -68,7 +68,7 @@ def test_a_failure_after_the_grasp_releases_the_target_and_the_run_goes_on() -> 
     assert r1.reason == "ik_failed" and r1.grasp_attempts == 1
     assert r1.detail.startswith("drop pose [")
     assert "test:fails_first_drop raised RuntimeError: cannot reach the bin today" in r1.detail
-    assert not in_bin(r1.target_final, runner.config.cell.bin)
+    assert not in_bin(r1.target_final, runner.layout.bin)
     assert runner.cell.grip_ctrl == runner.model.actuator_ctrlrange[runner.cell.handles.grip_act, 0]
     r2 = runner.run_cycle(2, 5)
     assert r2.success, r2.detail

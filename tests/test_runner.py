@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 
+import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.config import CellConfig, MotionConfig, TargetSpec
+from kr210_sim.config import MotionConfig
 from kr210_sim.report import build_report, strip_wall
 from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.scene import load_model
 from kr210_sim.scoring import in_bin
 
 
@@ -26,7 +28,7 @@ def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
         assert r.max_gripper_tracking_error_mm < 2.0
         assert r.cycle_time < 6.5
         assert r.grasp_attempts == 1
-        assert in_bin(r.target_final, runner.config.cell.bin)
+        assert in_bin(r.target_final, runner.layout.bin)
     # all three cylinders are in the bin, and each went to its own drop spot
     finals = np.array([r.target_final for r in runner.results])
     assert len({tuple(np.round(f[:2], 1)) for f in finals}) == 3
@@ -44,19 +46,23 @@ def test_the_main_job_leaves_ten_cylinders_in_the_bin() -> None:
     runner.idle(2.0)
     cell = runner.cell
     resting = [cell.target_pose(k)[0] for k in range(len(cell.handles.target_bodies))]
-    assert sum(in_bin(p, runner.config.cell.bin) for p in resting) == 10
+    assert sum(in_bin(p, runner.layout.bin) for p in resting) == 10
     assert max(cell.target_speed(k) for k in range(10)) < 0.01
 
 
-def _one(config: RunConfig, slot: int = 5):  # type: ignore[no-untyped-def]
-    runner = Runner(config)
+def _one(config: RunConfig, slot: int = 5, model: mujoco.MjModel | None = None):  # type: ignore[no-untyped-def]
+    runner = Runner(config, model=model)
     return runner, runner.run_cycle(1, slot)
 
 
+def _site(model: mujoco.MjModel, name: str) -> int:
+    return int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name))
+
+
 def test_unreachable_target_is_scored_and_the_run_goes_on() -> None:
-    slots = list(CellConfig().slots)
-    slots[4] = (4.5, 0.0, 1.681)  # far beyond the arm's reach: falls to the floor there
-    runner, r = _one(RunConfig(cycles=2, cell=CellConfig(slots=tuple(slots))))
+    model = load_model()
+    model.site_pos[_site(model, "slot_5")] = (4.5, 0.0, 1.556)  # beyond reach: falls there
+    runner, r = _one(RunConfig(cycles=2), model=model)
     assert not r.success and r.reason == "unreachable"
     assert "out of reach" in r.detail
     r2 = runner.run_cycle(2, 1)
@@ -64,24 +70,39 @@ def test_unreachable_target_is_scored_and_the_run_goes_on() -> None:
 
 
 def test_slippery_heavy_target_is_dropped_in_transit() -> None:
-    target = TargetSpec(friction=0.02, mass=0.5)
-    _, r = _one(RunConfig(cycles=1, cell=CellConfig(target=target)))
+    model = load_model()  # the nominal target is target_0 as the model holds it
+    model.geom_friction[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "target_0"), 0] = 0.02
+    model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "target_0")] = 0.5
+    _, r = _one(RunConfig(cycles=1), model=model)
     assert r.reason == "dropped_in_transit", r.detail
 
 
 def test_release_outside_the_bin_misses_it() -> None:
-    motion = MotionConfig(drop_spots=((0.9, 0.0),))
-    _, r = _one(RunConfig(cycles=1, motion=motion))
+    model = load_model()  # the drop spots are the model's sites drop_1 ...
+    model.site_pos[_site(model, "drop_1")] = (0.9, 2.5, 1.0)
+    _, r = _one(RunConfig(cycles=1), model=model)
     assert r.reason == "missed_bin", r.detail
     assert "outside the bin" in r.detail
 
 
 def test_carrying_through_the_bin_wall_is_a_collision() -> None:
     motion = MotionConfig(drop_height=0.85)
-    _, r = _one(RunConfig(cycles=1, motion=motion))
+    runner = Runner(RunConfig(cycles=1, motion=motion))
+    runner.planner.checker = None  # the contact monitor, not the planner, must see it
+    r = runner.run_cycle(1, 5)
     assert r.reason == "collision", r.detail
     assert r.env_contact_ticks > 0
     assert any("bin" in a or "bin" in b for a, b in r.contact_pairs)
+
+
+def test_a_plan_into_the_bin_wall_is_no_path_before_the_arm_moves() -> None:
+    motion = MotionConfig(drop_height=0.85)
+    runner = Runner(RunConfig(cycles=1, motion=motion))
+    r = runner.run_cycle(1, 5)
+    assert r.reason == "no_path", r.detail
+    assert "bin_wall" in r.detail and "carry move" in r.detail
+    assert r.grasp_attempts == 1 and "approach" not in r.phase_times  # the arm never moved
+    assert r.env_contact_ticks == 0
 
 
 def test_wrong_size_belief_misses_the_grasp() -> None:

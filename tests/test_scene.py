@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from kr210_sim import kinematics as kin
-from kr210_sim.config import CellConfig, MotionConfig
+from kr210_sim.cells import published_cell
+from kr210_sim.config import MotionConfig
 from kr210_sim.control import Cell, hold
 from kr210_sim.paths import SCENE_PATH
 from kr210_sim.robot import ARM_JOINTS, FINGER_JOINTS, load_robot
@@ -87,8 +88,8 @@ def test_mujoco_pose_matches_forward_kinematics(model: mujoco.MjModel) -> None:
 
 @pytest.mark.parametrize("slot", range(1, 10))
 def test_target_rests_in_each_slot(model: mujoco.MjModel, slot: int) -> None:
-    cfg = CellConfig()
-    cell = Cell(model, cfg)
+    cfg = published_cell()
+    cell = Cell(model)
     q0 = np.array(MotionConfig().ready_q)
     cell.reset(q0)
     h = cell.handles
@@ -103,7 +104,7 @@ def test_target_rests_in_each_slot(model: mujoco.MjModel, slot: int) -> None:
 
 
 def test_every_slot_and_drop_reachable() -> None:
-    robot, motion, cell = load_robot(), MotionConfig(), CellConfig()
+    robot, motion, cell = load_robot(), MotionConfig(), published_cell()
     planner = Planner(robot, motion)
     depth = grasp_depth(robot, cell.target.radius)
     for slot in range(1, 10):
@@ -116,8 +117,8 @@ def test_every_slot_and_drop_reachable() -> None:
             T[:3, 3] = p - dist * u
             q = kin.nearest(T, np.zeros(6))
             assert np.all(q >= robot.q_lower) and np.all(q <= robot.q_upper)
-    bx, by = cell.bin.center_xy
-    for dx, dy in motion.drop_spots:
+    bx, by = cell.bin.position
+    for dx, dy in cell.bin.drop_offsets():
         kin.nearest(planner.drop_pose((bx + dx, by + dy), cell.target.radius), np.zeros(6))
 
 
@@ -135,3 +136,35 @@ def test_build_is_deterministic_and_committed_scene_is_current(tmp_path) -> None
 def _meshdir(xml: str) -> str:
     start = xml.index('meshdir="') + len('meshdir="')
     return xml[start : xml.index('"', start)]
+
+
+def test_every_visual_vertex_lies_inside_its_links_colliders(model: mujoco.MjModel) -> None:
+    """Computed from whatever meshes are in assets/: each link's hull collider is its mesh."""
+    from kr210_sim.colliders import stick_out
+
+    worst = stick_out(model)
+    assert set(worst) >= {
+        "link_1",
+        "link_2",
+        "link_3",
+        "link_4",
+        "link_5",
+        "link_6",
+        "gripper_link",
+    }
+    assert max(worst.values()) <= 0.005, worst
+    # the URDF's primitives alone left the forearm tube of link 3 outside (the issue's finding)
+    assert stick_out(model, with_hulls=False)["link_3"] > 0.4
+
+
+def test_hull_colliders_touch_the_cell_but_not_the_targets(model: mujoco.MjModel) -> None:
+    hull = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "link_3_hull")
+    board = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "shelf_board_1")
+    target = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "target_0")
+
+    def pairs(a: int, b: int) -> bool:
+        ct, ca = model.geom_contype, model.geom_conaffinity
+        return bool((ct[a] & ca[b]) or (ct[b] & ca[a]))
+
+    assert pairs(hull, board) and not pairs(hull, target)
+    assert pairs(target, board)

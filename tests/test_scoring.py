@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kr210_sim.config import BinSpec
+from kr210_sim.layout import BinBox
 from kr210_sim.scoring import (
     REST_SPEED,
     REST_SPIN,
@@ -18,7 +18,7 @@ from kr210_sim.scoring import (
     score,
 )
 
-BIN = BinSpec()
+BIN = BinBox(center=(0.0, 2.5), inner_half=(0.44, 0.44), floor_top=0.05, rim=1.0)
 IN_BIN = np.array([0.05, 2.5, 0.1])
 
 
@@ -73,13 +73,13 @@ def test_precedence_unreachable_over_everything() -> None:
 
 
 def test_in_bin_walls_and_rim() -> None:
-    half = BIN.inner_half
-    cx, cy = BIN.center_xy
+    half = BIN.inner_half[0]
+    cx, cy = BIN.center
     assert in_bin([cx, cy, 0.2], BIN)
     assert in_bin([cx + half - 1e-3, cy, 0.2], BIN)
     assert not in_bin([cx + half + 1e-3, cy, 0.2], BIN)
     assert not in_bin([cx, cy - half - 1e-3, 0.2], BIN)
-    assert not in_bin([cx, cy, BIN.height + 0.01], BIN)
+    assert not in_bin([cx, cy, BIN.rim + 0.01], BIN)
     assert not in_bin([cx, cy, BIN.floor_top - 0.01], BIN)
     assert not in_bin([cx + half - 0.01, cy, 0.2], BIN, margin=0.02)
 

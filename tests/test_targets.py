@@ -8,6 +8,7 @@ import pytest
 
 from kr210_sim.config import TargetSpec
 from kr210_sim.control import Cell
+from kr210_sim.layout import CellLayout
 from kr210_sim.report import build_report
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
@@ -19,7 +20,7 @@ from kr210_sim.targets import TargetPool
 def test_a_run_past_ten_cycles_empties_the_bin_as_an_event() -> None:
     runner = Runner(RunConfig(cycles=12, seed=2, slot=5))
     cell, n = runner.cell, len(runner.cell.handles.target_bodies)
-    bin_spec = runner.config.cell.bin
+    bin_spec = runner.layout.bin
     before: set[int] = set()
     for i in range(1, 13):
         r = runner.run_cycle(i, 5)
@@ -39,7 +40,7 @@ def test_a_run_past_ten_cycles_empties_the_bin_as_an_event() -> None:
 
 def test_spawning_takes_spares_in_order_and_restocking_returns_them() -> None:
     cell = Cell(load_model())
-    pool = TargetPool(cell, cell.config)
+    pool = TargetPool(cell, CellLayout.from_model(cell.model))
     got = [pool.spawn((2.6, 0.0, 1.8), 0.0, TargetSpec()) for _ in range(10)]
     assert got == list(range(10)) and pool.spare == []
     with pytest.raises(IndexError):
@@ -50,7 +51,7 @@ def test_spawning_takes_spares_in_order_and_restocking_returns_them() -> None:
         event.detail
         == "the bin was emptied (0 cylinders) and 10 cylinders outside it were picked up"
     )
-    park = cell.config.park_position(3)
+    park = CellLayout.from_model(cell.model).park[3]
     assert np.allclose(cell.target_pose(3)[0], park)
 
 
@@ -66,7 +67,7 @@ def test_a_cylinder_dropped_from_release_height_does_not_sink_into_the_bin_floor
     floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "bin_floor")
     for spec in (TargetSpec(), TargetSpec(radius=0.06, length=0.3, mass=0.5)):
         cell = Cell(model)
-        k = TargetPool(cell, cell.config).spawn((0.0, 2.5, 1.6), 0.0, spec)
+        k = TargetPool(cell, CellLayout.from_model(cell.model)).spawn((0.0, 2.5, 1.6), 0.0, spec)
         g = int(cell.handles.target_geoms[k])
         depths: list[float] = []
         for _ in range(1000):

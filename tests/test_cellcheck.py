@@ -1,0 +1,63 @@
+"""The check command and run's refusal of a cell no slot of which can be served."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from kr210_sim.cellcheck import check_cell
+from kr210_sim.cells import PUBLISHED_CELL, model_for
+from kr210_sim.cli import main
+
+CELLS = PUBLISHED_CELL.parent
+
+
+def test_the_published_cell_is_served_without_detours() -> None:
+    result = check_cell(model_for())
+    assert result.ok and len(result.slots) == 9 and len(result.drops) == 9
+    assert not any(r.detour for r in (*result.slots, *result.drops))
+
+
+def test_an_unreachable_shelf_is_rejected_with_a_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "--cell", str(CELLS / "unreachable.toml")]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("cell unreachable: NOT SERVED")
+    assert out.count("out of reach") == 9 and "slot 9" in out and "drop 9" in out
+
+
+def test_run_refuses_a_cell_no_slot_of_which_can_be_served(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    report = tmp_path / "r.json"
+    code = main(["run", "--cell", str(CELLS / "unreachable.toml"), "--report", str(report)])
+    assert code == 2 and not report.exists()
+    err = capsys.readouterr().err
+    assert "cell unreachable: NOT SERVED" in err
+    assert err.strip().splitlines()[-1] == (
+        "kr210_sim: error: cell unreachable: no slot can be served (see the table above)"
+    )
+
+
+def test_the_column_cell_needs_detours_and_gets_them() -> None:
+    result = check_cell(model_for(cell=CELLS / "column.toml"))
+    assert result.ok
+    assert sum(r.detour for r in result.slots) >= 5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["other_side", "grid_4x2", "column"])
+def test_example_cells_run_with_no_contact(name: str) -> None:
+    """Three cycles per example cell (bottom, middle and top rows); `run --cycles 10` on each
+    is 10/10 too (README)."""
+    from kr210_sim.runner import RunConfig, Runner
+
+    runner = Runner(RunConfig(cycles=3), model=model_for(cell=CELLS / f"{name}.toml"))
+    n = runner.layout.n_slots
+    columns = {"grid_4x2": 2}.get(name, 3)
+    for i, slot in enumerate((1, n // 2 + 1, n - columns + 1), start=1):
+        r = runner.run_cycle(i, slot)
+        assert r.success, r.detail
+        assert r.env_contact_ticks == 0
+    detours = sum(r.detours for r in runner.results)
+    assert detours >= 3 if name == "column" else detours == 0
