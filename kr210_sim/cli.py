@@ -1,6 +1,7 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio), ``evaluate``,
+Commands: ``run`` (the main job), ``replay`` (render a recording of a run to MP4), ``view`` (the
+same run live in MuJoCo Studio), ``evaluate``,
 ``ik-check``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run
 below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
 message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
@@ -19,11 +20,13 @@ from kr210_sim import __version__
 from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
 from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
+from kr210_sim.progress import ProgressLine
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
+DEFAULT_RECORD_RATE = 30
 
 
 class _Parser(argparse.ArgumentParser):
@@ -131,7 +134,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    job = run_job(config, args.report, video=video, plots_dir=args.plots, scene=args.scene, ik=ik)
+    if args.render_workers is not None and video is None:
+        raise ConfigError("--render-workers needs --video PATH")
+    if args.record_rate is not None and args.record is None:
+        raise ConfigError("--record-rate needs --record PATH")
+    job = run_job(
+        config,
+        args.report,
+        video=video,
+        plots_dir=args.plots,
+        scene=args.scene,
+        ik=ik,
+        record=args.record,
+        record_rate=args.record_rate or DEFAULT_RECORD_RATE,
+        render_workers=args.render_workers,
+    )
     out = sys.stdout
     summary = job.report["summary"]
     out.write(summary_table(summary) + "\n")
@@ -142,6 +159,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{1e6 * t['per_call_max']:.1f} us max per call\n"
         )
     out.write(f"  report: {job.report_path}\n")
+    if args.record is not None and job.record_frames:
+        size = args.record.stat().st_size / 1e6
+        out.write(f"  recording: {args.record} ({job.record_frames} frames, {size:.2f} MB)\n")
     if video is not None and job.video_error is None:
         written = f"({job.video_frames} frames)" if job.video_frames else "not written (no frames)"
         out.write(f"  video: {video.path} {written}\n")
@@ -160,6 +180,67 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"cycles succeeded (pass bar {args.min_success:.0%})\n"
     )
     return 0 if passed else 1
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from kr210_sim.outputs import check_distinct, check_writable, is_stream
+    from kr210_sim.paths import SCENE_PATH
+    from kr210_sim.recording import check_model, read_recording
+    from kr210_sim.replay import default_workers, render_recording
+    from kr210_sim.scene import load_model
+    from kr210_sim.video import VideoSettings
+
+    rec = read_recording(args.recording)
+    recorded_scene = rec.meta.get("scene")
+    scene = (
+        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
+    )
+    model = load_model(scene)
+    check_model(args.recording, rec, model)
+    # Defaults: the run's own video settings when it had a video, else the video defaults.
+    made: dict[str, Any] = dict(rec.meta.get("video") or {})
+    if "cameras" in made:
+        made["cameras"] = tuple(made["cameras"])
+    given = {
+        k: v
+        for k, v in (
+            ("cameras", tuple(args.camera) if args.camera else None),
+            ("width", args.width),
+            ("height", args.height),
+            ("fps", args.fps),
+            ("quality", args.quality),
+        )
+        if v is not None
+    }
+    fps = given.get("fps", made.get("fps", round(rec.rate)))
+    path = args.video if args.video is not None else args.recording.with_suffix(".mp4")
+    video = VideoSettings(path=path, **{**made, **given, "fps": fps})
+    check_writable(video.path)
+    if is_stream(video.path):
+        raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
+    check_distinct(
+        {"--video": video.path},
+        {"the recording": args.recording, "--scene": scene if scene is not None else SCENE_PATH},
+    )
+    workers = args.workers if args.workers is not None else default_workers()
+    line = ProgressLine(sys.stderr)
+    total = rec.frames if fps == rec.rate else None
+
+    def progress(frames: int, sim_time: float) -> None:
+        if line.due():
+            of = f"/{total}" if total else ""
+            line.show(f"replay: {frames}{of} frames  sim {sim_time:5.1f} s  {line.elapsed:4.0f} s")
+
+    frames, interrupted = render_recording(rec, model, video, workers, progress)
+    line.end(f"replay: {frames} frames in {line.elapsed:.1f} s on {workers} worker(s)")
+    written = f"({frames} frames)" if frames else "not written (no frames)"
+    sys.stdout.write(f"  video: {video.path} {written}\n")
+    if interrupted is not None:
+        sys.stderr.write(
+            f"kr210_sim: interrupted ({signal_name(interrupted)}); frames so far kept\n"
+        )
+        return exit_code(interrupted)
+    return 0
 
 
 def _speed(text: str) -> float:
@@ -353,7 +434,53 @@ def build_parser() -> argparse.ArgumentParser:
         help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
+    run.add_argument(
+        "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
+    )
+    run.add_argument(
+        "--record-rate",
+        type=_fps,
+        default=None,
+        help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})",
+    )
+    run.add_argument(
+        "--render-workers",
+        type=_positive_int,
+        default=None,
+        help="processes rendering the video (one per core; 1: render in this process)",
+    )
     run.set_defaults(func=_cmd_run)
+
+    rp = sub.add_parser("replay", help="render a recording (run --record) to MP4")
+    rp.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
+    rp.add_argument("--video", type=Path, default=None, help="MP4 path (default: REC with .mp4)")
+    rp.add_argument(
+        "--camera",
+        action="append",
+        default=None,
+        help="camera (default: the run's, else overview); repeat to tile views side by side",
+    )
+    rp.add_argument("--width", type=_multiple_of_16, default=None, help="view width [px] (640)")
+    rp.add_argument("--height", type=_multiple_of_16, default=None, help="height [px] (480)")
+    rp.add_argument(
+        "--fps", type=_fps, default=None, help="frames per simulated s (the recording's rate)"
+    )
+    rp.add_argument(
+        "--quality", choices=("fast", "medium", "high"), default=None, help="as for run (medium)"
+    )
+    rp.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help="render processes (one per core; 1: render in this process)",
+    )
+    rp.add_argument(
+        "--scene",
+        type=Path,
+        default=None,
+        help="MJCF scene the recording was made with (default: the one it names, else ours)",
+    )
+    rp.set_defaults(func=_cmd_replay)
 
     view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
     _add_run_options(view, report=DEFAULT_VIEW_REPORT)
