@@ -276,6 +276,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
             raise ConfigError("--joints has no task to step through: drop --demo")
         run_joints(settings)
         return 0
+    if args.replay is not None:
+        return _view_replay(args, settings)
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args.ik)
@@ -295,6 +297,35 @@ def _cmd_view(args: argparse.Namespace) -> int:
         f"cycles succeeded (pass bar {args.min_success:.0%})\n"
     )
     return 0 if passed else 1
+
+
+def _view_replay(args: argparse.Namespace, settings: Any) -> int:
+    """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
+    from kr210_sim.live import LiveSettings, replay_view
+    from kr210_sim.recording import check_model, read_recording
+    from kr210_sim.scene import load_model
+
+    if args.demo:
+        raise ConfigError("--replay plays a recording: drop --demo")
+    rec = read_recording(args.replay)
+    recorded_scene = rec.meta.get("scene")
+    scene = (
+        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
+    )
+    model = load_model(scene)
+    check_model(args.replay, rec, model)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    result = replay_view(rec, model, settings, live)
+    sys.stdout.write(
+        f"  replay: {result.frames}/{rec.frames} frames at {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x)\n"
+    )
+    if result.interrupted is not None:
+        if isinstance(result.interrupted, KeyboardInterrupt):
+            return exit_code(result.interrupted)
+        sys.stderr.write(f"kr210_sim: {result.interrupted}\n")
+        return 130
+    return 0
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
@@ -518,6 +549,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     view.add_argument(
         "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
+    )
+    view.add_argument(
+        "--replay",
+        type=Path,
+        default=None,
+        metavar="REC",
+        help="play a recording (run --record) instead of running the cycles",
     )
     view.add_argument(
         "--exit-when-done",
