@@ -25,7 +25,7 @@ import json
 import logging
 import zipfile
 import zlib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -531,3 +531,36 @@ def run_meta(
     if video is not None:
         meta["video"] = dict(video)
     return meta
+
+
+def record_failures(
+    records: Iterable[Mapping[str, Any]],
+    randomize: bool,
+    out_dir: Path | str,
+    scene: Path | None = None,
+    rate: float = DEFAULT_RATE,
+) -> list[EpisodeRecording]:
+    """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
+
+    Args:
+        records: The evaluation report's episode records (each has ``seed`` and ``success``).
+        randomize: Whether the evaluation randomised its targets.
+        out_dir: Folder for the recordings, named ``<seed>_<reason>.npz``.
+        scene: MJCF scene of the evaluation (default: the committed scene).
+        rate: Frames per simulated second [Hz].
+
+    Returns:
+        One entry per failed episode, in the records' order.
+    """
+    from kr210_sim.outputs import check_folder
+    from kr210_sim.scene import load_model
+
+    failed = [r for r in records if not r["success"]]
+    if not failed:
+        return []
+    check_folder(out_dir)
+    pristine = load_model(scene)
+    return [
+        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, model=pristine)
+        for r in failed
+    ]

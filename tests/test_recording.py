@@ -177,3 +177,17 @@ def test_record_episode_names_the_file_by_seed_and_reason(tmp_path: Path) -> Non
     cycle = rec.meta["summary"]
     assert cycle["cycles"] == 1 and cycle["successes"] == int(expected.success)
     assert rec.meta["run"] == {"seed": seed, "slot": 0, "randomize": True}
+
+
+def test_record_failures_records_only_the_failed_episodes(tmp_path: Path) -> None:
+    from kr210_sim.recording import record_failures
+
+    records = [
+        {"seed": 11, "success": True, "reason": None},
+        {"seed": 1234, "success": False, "reason": "as evaluated"},
+    ]
+    assert record_failures(records[:1], True, tmp_path / "none") == []
+    assert not (tmp_path / "none").exists()  # no failure, no folder
+    made = record_failures(records, True, tmp_path / "f")
+    assert [m.path.name.split("_")[0] for m in made] == ["1234"]
+    assert made[0].path.exists()
