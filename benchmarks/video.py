@@ -17,6 +17,7 @@ absolute figures are not:
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import tempfile
@@ -96,6 +97,7 @@ def main() -> None:
     rec = one_cycle()
     n = rec.frames
     print(f"{n} frames of one cycle, {W}x{H}, quality medium (shadows), overview, libx264")
+    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         settings = VideoSettings(folder / "bench.mp4", ("overview",), W, H, quality="medium")
@@ -125,6 +127,7 @@ def main() -> None:
             f"  simulate, then render: run --record {t_sim:.1f} s + replay {t_replay:.1f} s "
             f"= {t_sim + t_replay:.1f} s"
         )
+    print(f"load average at the end: {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":
