@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -69,11 +70,30 @@ def encoder_only(rec: Recording, settings: VideoSettings) -> float:
     return rec.frames / (time.perf_counter() - t)
 
 
-def pool(rec: Recording, settings: VideoSettings, workers: int) -> float:
-    """Frames per second through the render pool, start-up included, to the finished MP4."""
-    t = time.perf_counter()
-    frames, _ = render_recording(rec, load_model(), settings, workers)
-    return frames / (time.perf_counter() - t)
+def cpu() -> float:
+    """CPU time of this process and its finished children (render processes, ffmpeg) [s]."""
+    me, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def pool(rec: Recording, settings: VideoSettings, workers: int) -> tuple[float, ...]:
+    """Through the render pool to the finished MP4: frames per second with the start-up, the
+    start-up itself (to the first frame written) [s], frames per second after it, and the CPU
+    time a frame costs in all processes, start-up included [s]."""
+    first: list[float] = []
+
+    def seen(frames: int, sim_time: float) -> None:
+        if frames == 1:
+            first.append(time.perf_counter())
+
+    t, c = time.perf_counter(), cpu()
+    frames, _ = render_recording(rec, load_model(), settings, workers, seen)
+    end = time.perf_counter()
+    per_frame = (cpu() - c) / frames
+    return frames / (end - t), first[0] - t, (frames - 1) / (end - first[0]), per_frame
 
 
 def wall(argv: list[str], cwd: Path) -> float:
@@ -103,14 +123,21 @@ def main() -> None:
         settings = VideoSettings(folder / "bench.mp4", ("overview",), W, H, quality="medium")
         r1 = render_only(rec, settings)
         enc = encoder_only(rec, settings)
-        p1 = pool(rec, settings, 1)
-        pw = pool(rec, settings, args.workers)
+        p1, s1, f1, c1 = pool(rec, settings, 1)
+        pw, sw, fw, cw = pool(rec, settings, args.workers)
         print(f"  render only, this process        {r1:6.1f} frames/s")
         print(f"  encoder alone (overlay + x264)   {enc:6.1f} frames/s")
-        print(f"  render + encode, 1 process       {p1:6.1f} frames/s")
+        print("  render + encode      all frames   after the first   start-up   CPU a frame")
         print(
-            f"  render + encode, {args.workers} processes     {pw:6.1f} frames/s  "
-            f"({pw / p1:.2f}x the 1-process rate, start-up included)"
+            f"    1 process          {p1:6.1f}/s     {f1:6.1f}/s       {s1:5.1f} s   "
+            f"{c1 * 1e3:6.1f} ms"
+        )
+        print(
+            f"    {args.workers} processes        {pw:6.1f}/s     {fw:6.1f}/s       {sw:5.1f} s   "
+            f"{cw * 1e3:6.1f} ms"
+        )
+        print(
+            f"  speed-up with {args.workers}: {pw / p1:.2f}x (all), {fw / f1:.2f}x (after start-up)"
         )
         print(f"  ceiling set by the encoder: {enc / r1:.1f} render processes' worth")
         if args.no_runs:
