@@ -1,6 +1,6 @@
 """Rendering recorded states to MP4, in parallel: W processes render, one encoder writes in order.
 
-Frames are cut into chunks of consecutive frames (:func:`chunk_frames`: up to 16, fewer for big
+Frames are cut into chunks of consecutive frames (:func:`chunk_frames`: up to 8, fewer for big
 frames so a worker's buffer stays near 32 MB); chunk ``c`` goes to worker ``c mod W``. Each worker
 is a ``spawn``-ed process with its own model (loaded from the parent's, saved as MJB) and its own
 OpenGL context; it renders its chunks frame by frame and sends the pixels back through a pipe,
@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import RenderError
+from kr210_sim.interrupts import deferred
 from kr210_sim.recording import FrameStatus, Recording, apply_frame
 from kr210_sim.render import check_camera, check_frame_size, make_renderer
 from kr210_sim.video import QUALITY, VideoSettings, _Writer
@@ -51,8 +52,11 @@ log = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.signedinteger]
 
-#: Most frames in a chunk.
-MAX_CHUNK = 16
+#: Most frames in a chunk (small: after Ctrl-C during a run, the frames handed out are still
+#: written, at most workers x (AHEAD + 1/2) chunks).
+MAX_CHUNK = 8
+#: Seconds between checks for Ctrl-C while waiting for a frame [s].
+POLL = 0.1
 #: Bytes of frames a worker may hold ahead of the encoder (one chunk) [B].
 WORKER_BUFFER = 32 * 2**20
 #: Chunks handed to each worker ahead of the encoder (one rendering, one waiting).
@@ -277,17 +281,18 @@ class RenderPool:
         written while every worker is :data:`AHEAD` chunks ahead)."""
         while len(self._outstanding) >= self.workers * AHEAD:
             self._consume(block=True, limit=1)
-        w = self._next_chunk % self.workers
-        qpos = np.stack([p[0] for p in self._pending])
-        shapes = np.stack([p[1] for p in self._pending])
-        tail = np.array([p[2] for p in self._pending], dtype=bool)
-        try:
-            self._tasks[w].send((qpos, shapes, tail))
-        except OSError as exc:
-            raise self._died(w, exc) from exc
-        self._outstanding.append((w, len(self._pending)))
-        self._next_chunk += 1
-        self._pending = []
+        with deferred():  # a task is sent whole, and counted
+            w = self._next_chunk % self.workers
+            qpos = np.stack([p[0] for p in self._pending])
+            shapes = np.stack([p[1] for p in self._pending])
+            tail = np.array([p[2] for p in self._pending], dtype=bool)
+            try:
+                self._tasks[w].send((qpos, shapes, tail))
+            except OSError as exc:
+                raise self._died(w, exc) from exc
+            self._outstanding.append((w, len(self._pending)))
+            self._next_chunk += 1
+            self._pending = []
 
     def _died(self, w: int, exc: BaseException) -> RenderError:
         proc = self._procs[w]
@@ -311,19 +316,26 @@ class RenderPool:
 
     def _consume(self, block: bool, limit: int | None = None) -> None:
         """Write the next frames in order: those ready (or, with ``block``, waiting for them),
-        at most ``limit`` chunks' worth of completions."""
+        at most ``limit`` chunks' worth of completions.
+
+        An interrupt lands while waiting (nothing read yet) or after a frame is written and
+        counted, never in between: :meth:`finish` can still write every frame fed after it.
+        """
         done = 0
         while self._outstanding and (limit is None or done < limit):
             w, n = self._outstanding[0]
-            if not block and not self._results[w].poll():
+            conn = self._results[w]
+            if not block and not conn.poll():
                 return
-            frame = self._receive(w)
-            self._write(frame)
-            if n == 1:
-                self._outstanding.popleft()
-                done += 1
-            else:
-                self._outstanding[0] = (w, n - 1)
+            while not conn.poll(POLL):  # interruptible wait
+                pass
+            with deferred():
+                self._write(self._receive(w))
+                if n == 1:
+                    self._outstanding.popleft()
+                    done += 1
+                else:
+                    self._outstanding[0] = (w, n - 1)
 
     def _write(self, frame: npt.NDArray[np.uint8]) -> None:
         status = self._lines.popleft()
@@ -336,12 +348,13 @@ class RenderPool:
     def feed(self, qpos: FloatArray, shapes: FloatArray, status: FrameStatus, tail: bool) -> None:
         """Add the next frame: the state ``qpos``, target ``shapes``, the overlay's ``status``
         and whether it belongs to the closing shot."""
-        self.fed += 1
-        self._lines.append(status)
-        if self._local is not None:
-            self._write(self._local.render(qpos, shapes, tail))
-            return
-        self._pending.append((qpos, shapes, tail))
+        with deferred():  # counted whole, or not at all
+            self.fed += 1
+            self._lines.append(status)
+            if self._local is not None:
+                self._write(self._local.render(qpos, shapes, tail))
+                return
+            self._pending.append((qpos, shapes, tail))
         if len(self._pending) >= self.chunk:
             self._dispatch()
         self._consume(block=False)

@@ -86,7 +86,7 @@ def test_parallel_frames_equal_a_single_process_render(
             self.written += 1
 
     pool = Capture(model, settings, rec.target_geoms, workers=2)
-    assert pool.chunk == chunk_frames(settings) == 16
+    assert pool.chunk == chunk_frames(settings) == 8
     try:
         for i in picks:
             pool.feed(rec.arrays["qpos"][i], rec.shapes_at(i), rec.status(i), rec.arrays["tail"][i])
