@@ -70,6 +70,35 @@ def encoder_only(rec: Recording, settings: VideoSettings) -> float:
     return rec.frames / (time.perf_counter() - t)
 
 
+def _render_alone(n: int) -> float:
+    """Render ``n`` frames of the home pose in a fresh process; the seconds it took (after a
+    warm-up frame)."""
+    import mujoco
+    import numpy as np
+
+    model = load_model()
+    settings = VideoSettings(Path("unused.mp4"), ("overview",), W, H, quality="medium")
+    r = FrameRenderer(model, settings, np.zeros(0, dtype=np.int32))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    r.render(data.qpos, np.zeros((0, 10)), False)
+    t = time.perf_counter()
+    for _ in range(n):
+        r.render(data.qpos, np.zeros((0, 10)), False)
+    return time.perf_counter() - t
+
+
+def free_cores(workers: int, n: int = 30) -> float:
+    """How many times one process's render rate ``workers`` independent render processes reach
+    together now (no encoder, no pool): what the machine gives, the most a pool can get."""
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(workers) as p:
+        one = p.map(_render_alone, [n])[0]
+        many = p.map(_render_alone, [n] * workers)
+    return workers * n / max(many) / (n / one)
+
+
 def cpu() -> float:
     """CPU time of this process and its finished children (render processes, ffmpeg) [s]."""
     me, kids = (
@@ -140,6 +169,10 @@ def main() -> None:
             f"  speed-up with {args.workers}: {pw / p1:.2f}x (all), {fw / f1:.2f}x (after start-up)"
         )
         print(f"  ceiling set by the encoder: {enc / r1:.1f} render processes' worth")
+        print(
+            f"  {args.workers} independent render processes reach {free_cores(args.workers):.2f}x "
+            "one process's rate on this machine now (the most a pool can get)"
+        )
         if args.no_runs:
             return
         run = ["run", "--cycles", "10", "--report", "r.json", "--video", "v.mp4"]
