@@ -1,132 +1,193 @@
-"""Video export cost: the bare renderer against the whole pipeline, for the same frames.
+"""Video cost: render rate with 1 and W processes, the encoder's own rate, and a whole run.
 
-Run: ``python benchmarks/video.py [--frames N] [--scene OLD.xml ...]``. Prints figures only. The
-states are taken from one simulated cycle (sampled at 30 fps); "bare" renders each state from
-the overview camera and discards it; "pipeline" is :class:`kr210_sim.video.FrameRecorder`:
-render, hand over to the writer thread, draw the overlay, pipe to ffmpeg (libx264) and finish
-the file. Both are timed in the same process, so their ratio is meaningful on a noisy shared
-machine even when the absolute figures are not. ``--scene`` adds the bare 640x480 cost per frame
-at the default video quality (medium) of other scene files (e.g. an older commit's
-``scenes/kr210_cell.xml`` with its meshes: ``git archive REV scenes assets | tar -x -C
-/tmp/old``) next to the committed one's, rendering the same states.
+Run: ``python benchmarks/video.py [--workers 2] [--no-runs]``. Prints figures only. Everything is
+measured in one run on the same states (one recorded cycle at 30 Hz, 640x480, default quality
+``medium``, overview camera), so the ratios are meaningful on a noisy shared machine even when the
+absolute figures are not:
+
+* render only, in this process (no encoding): the cost of a frame;
+* the encoder alone (overlay + ffmpeg/libx264) fed one rendered frame again and again: the rate
+  no number of render processes can pass;
+* the render pool with 1 process (render here, encode on a thread) and with W processes, wall
+  time from the start (process start-up included) to the finished MP4;
+* ``run --cycles 10 --video`` at 640x480, as the user runs it (default: one render process per
+  core), with ``--render-workers 1``, and simulate-then-render (``run --record`` then ``replay``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import resource
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import kr210_sim  # noqa: F401  (chooses MUJOCO_GL=egl before mujoco is imported)
-from kr210_sim.render import make_renderer, render_frame
+from kr210_sim.recording import Recording, StateRecorder
+from kr210_sim.replay import FrameRenderer, default_workers, render_recording
 from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.video import QUALITY, FrameRecorder, VideoSettings, overlay_lines
+from kr210_sim.scene import load_model
+from kr210_sim.video import VideoSettings, _Writer
 
-import mujoco  # isort: skip
-
-SIZES = ((640, 480), (1280, 720))
+W, H = 640, 480
 
 
-def states(n: int) -> tuple[Runner, list[mujoco.MjData]]:
-    """``n`` snapshots of the cell's state, 1/30 s of simulated time apart, over one cycle."""
+def one_cycle() -> Recording:
+    """One cycle's states at 30 Hz."""
     runner = Runner(RunConfig(cycles=1, seed=0, slot=5))
-    snaps: list[mujoco.MjData] = []
-
-    def grab(cell: object) -> None:
-        d = runner.cell.data
-        if len(snaps) < n and d.time >= len(snaps) / 30.0:
-            snaps.append(mujoco.MjData(runner.model))
-            mujoco.mj_copyData(snaps[-1], runner.model, d)
-
-    runner.cell.hooks.append(grab)
+    rec = StateRecorder(runner.model, runner.cell.handles.target_geoms, runner.status, 30)
+    runner.cell.hooks.append(rec)
     runner.run_cycle(1, 5)
-    runner.cell.hooks.remove(grab)
-    while len(snaps) < n:  # a short cycle: repeat the states
-        snaps.append(snaps[len(snaps) % max(len(snaps), 1)])
-    return runner, snaps
+    return rec.recording({"model_sha256": "", "scene": None})
 
 
-def bare(model: mujoco.MjModel, snaps: list[mujoco.MjData], w: int, h: int, shadows: bool) -> float:
-    renderer = make_renderer(model, w, h)
-    cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "overview")
-    render_frame(renderer, snaps[0], cam, shadows)  # warm up
+def render_only(rec: Recording, settings: VideoSettings) -> float:
+    """Frames per second of rendering alone, in this process."""
+    r = FrameRenderer(load_model(), settings, rec.target_geoms)
+    r.render(rec.arrays["qpos"][0], rec.shapes_at(0), False)  # warm up
     t = time.perf_counter()
-    for d in snaps:
-        render_frame(renderer, d, cam, shadows)
+    for i in range(rec.frames):
+        r.render(rec.arrays["qpos"][i], rec.shapes_at(i), False)
     dt = time.perf_counter() - t
-    renderer.close()
-    return dt / len(snaps)
+    r.close()
+    return rec.frames / dt
 
 
-def pipeline(
-    model: mujoco.MjModel, snaps: list[mujoco.MjData], w: int, h: int, quality: str
-) -> float:
-    status: dict[str, object] = {"cycle": 1, "cycles": 1, "slot": 5, "phase": "carry"}
-    with tempfile.TemporaryDirectory() as tmp:
-        settings = VideoSettings(Path(tmp) / "bench.mp4", ("overview",), w, h, quality=quality)
-        rec = FrameRecorder(model, settings, lambda: overlay_lines(status, 0.0))
-        rec.capture(snaps[0])  # warm up (also starts ffmpeg)
-        t = time.perf_counter()
-        for d in snaps:
-            rec.capture(d)
-        rec.close()
-        dt = time.perf_counter() - t
-    return dt / len(snaps)
+def encoder_only(rec: Recording, settings: VideoSettings) -> float:
+    """Frames per second of the encoder alone (overlay + libx264), fed a rendered frame."""
+    r = FrameRenderer(load_model(), settings, rec.target_geoms)
+    frame = r.render(rec.arrays["qpos"][rec.frames // 2], rec.shapes_at(0), False)
+    r.close()
+    writer = _Writer(settings)
+    lines = rec.status(0).lines()
+    t = time.perf_counter()
+    for _ in range(rec.frames):
+        writer.put(frame.copy(), lines)
+    writer.close()
+    return rec.frames / (time.perf_counter() - t)
 
 
-def compare(paths: list[str], snaps: list[mujoco.MjData], rounds: int = 5) -> None:
-    """Bare 640x480 medium-quality cost per frame of each scene file, the committed one first;
-    the scenes take turns for ``rounds`` rounds and the fastest round of each counts (a shared
-    machine's load comes and goes)."""
-    from kr210_sim.scene import load_model
+def _render_alone(n: int) -> float:
+    """Render ``n`` frames of the home pose in a fresh process; the seconds it took (after a
+    warm-up frame)."""
+    import mujoco
+    import numpy as np
 
-    shadows, shadow_size, msaa = QUALITY["medium"]
-    scenes = []
-    for path in [None, *paths]:
-        model = load_model(path)
-        model.vis.quality.shadowsize = shadow_size
-        model.vis.quality.offsamples = msaa
-        moved = []
-        for d in snaps:
-            m = mujoco.MjData(model)
-            m.qpos[:] = d.qpos
-            mujoco.mj_forward(model, m)
-            moved.append(m)
-        scenes.append((path or "committed scene", model, moved))
-    best = [float("inf")] * len(scenes)
-    for _ in range(rounds):
-        for i, (_, model, moved) in enumerate(scenes):
-            best[i] = min(best[i], bare(model, moved, 640, 480, shadows) * 1e3)
-    print(f"scene comparison: 640x480, medium (default video quality), bare, best of {rounds}")
-    for (label, _, _), ms in zip(scenes, best, strict=True):
-        print(f"  {ms:6.1f} ms/frame  {ms / best[0]:5.2f}x  {label}")
+    model = load_model()
+    settings = VideoSettings(Path("unused.mp4"), ("overview",), W, H, quality="medium")
+    r = FrameRenderer(model, settings, np.zeros(0, dtype=np.int32))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    r.render(data.qpos, np.zeros((0, 10)), False)
+    t = time.perf_counter()
+    for _ in range(n):
+        r.render(data.qpos, np.zeros((0, 10)), False)
+    return time.perf_counter() - t
+
+
+def free_cores(workers: int, n: int = 30) -> float:
+    """How many times one process's render rate ``workers`` independent render processes reach
+    together now (no encoder, no pool): what the machine gives, the most a pool can get."""
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(workers) as p:
+        one = p.map(_render_alone, [n])[0]
+        many = p.map(_render_alone, [n] * workers)
+    return workers * n / max(many) / (n / one)
+
+
+def cpu() -> float:
+    """CPU time of this process and its finished children (render processes, ffmpeg) [s]."""
+    me, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def pool(rec: Recording, settings: VideoSettings, workers: int) -> tuple[float, ...]:
+    """Through the render pool to the finished MP4: frames per second with the start-up, the
+    start-up itself (to the first frame written) [s], frames per second after it, and the CPU
+    time a frame costs in all processes, start-up included [s]."""
+    first: list[float] = []
+
+    def seen(frames: int, sim_time: float) -> None:
+        if frames == 1:
+            first.append(time.perf_counter())
+
+    t, c = time.perf_counter(), cpu()
+    frames, _ = render_recording(rec, load_model(), settings, workers, seen)
+    end = time.perf_counter()
+    per_frame = (cpu() - c) / frames
+    return frames / (end - t), first[0] - t, (frames - 1) / (end - first[0]), per_frame
+
+
+def wall(argv: list[str], cwd: Path) -> float:
+    """Wall time of a ``python -m kr210_sim`` command [s]."""
+    t = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "kr210_sim", *argv],
+        cwd=cwd,
+        check=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    return time.perf_counter() - t
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=120, help="frames per measurement (120)")
-    parser.add_argument(
-        "--scene", action="append", default=[], help="another scene file to compare (repeat)"
-    )
+    parser.add_argument("--workers", type=int, default=default_workers(), help="W (cores)")
+    parser.add_argument("--no-runs", action="store_true", help="skip the ten-cycle runs")
     args = parser.parse_args()
-    runner, snaps = states(args.frames)
-    model = runner.model
-    if args.scene:
-        compare(args.scene, snaps)
-        return
-    print(f"{args.frames} frames from one cycle, overview camera, libx264")
-    print("(x264 preset: fast = ultrafast, medium = veryfast)")
-    print(f"{'size':>9} {'quality':>20} {'bare ms':>8} {'pipeline ms':>12} {'ratio':>6}")
-    for w, h in SIZES:
-        for quality in ("fast", "medium"):
-            shadows, shadow_size, msaa = QUALITY[quality]
-            model.vis.quality.shadowsize = shadow_size
-            model.vis.quality.offsamples = msaa
-            b = bare(model, snaps, w, h, shadows)
-            p = pipeline(model, snaps, w, h, quality)
-            label = f"{quality} ({'shadows' if shadows else 'no shadows'})"
-            print(f"{w:>5}x{h:<4} {label:>20} {b * 1e3:8.1f} {p * 1e3:12.1f} {p / b:6.2f}")
+    rec = one_cycle()
+    n = rec.frames
+    print(f"{n} frames of one cycle, {W}x{H}, quality medium (shadows), overview, libx264")
+    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        settings = VideoSettings(folder / "bench.mp4", ("overview",), W, H, quality="medium")
+        r1 = render_only(rec, settings)
+        enc = encoder_only(rec, settings)
+        p1, s1, f1, c1 = pool(rec, settings, 1)
+        pw, sw, fw, cw = pool(rec, settings, args.workers)
+        print(f"  render only, this process        {r1:6.1f} frames/s")
+        print(f"  encoder alone (overlay + x264)   {enc:6.1f} frames/s")
+        print("  render + encode      all frames   after the first   start-up   CPU a frame")
+        print(
+            f"    1 process          {p1:6.1f}/s     {f1:6.1f}/s       {s1:5.1f} s   "
+            f"{c1 * 1e3:6.1f} ms"
+        )
+        print(
+            f"    {args.workers} processes        {pw:6.1f}/s     {fw:6.1f}/s       {sw:5.1f} s   "
+            f"{cw * 1e3:6.1f} ms"
+        )
+        print(
+            f"  speed-up with {args.workers}: {pw / p1:.2f}x (all), {fw / f1:.2f}x (after start-up)"
+        )
+        print(f"  ceiling set by the encoder: {enc / r1:.1f} render processes' worth")
+        print(
+            f"  {args.workers} independent render processes reach {free_cores(args.workers):.2f}x "
+            "one process's rate on this machine now (the most a pool can get)"
+        )
+        if args.no_runs:
+            return
+        run = ["run", "--cycles", "10", "--report", "r.json", "--video", "v.mp4"]
+        t_default = wall(run, folder)
+        t_one = wall([*run, "--render-workers", "1"], folder)
+        t_sim = wall(["run", "--cycles", "10", "--report", "r.json", "--record", "r.npz"], folder)
+        t_replay = wall(["replay", "r.npz", "--video", "v2.mp4"], folder)
+        print("run --cycles 10 --video v.mp4 (640x480, medium):")
+        print(f"  one render process per core ({default_workers()})  {t_default:6.1f} s")
+        print(f"  --render-workers 1                {t_one:6.1f} s")
+        print(
+            f"  simulate, then render: run --record {t_sim:.1f} s + replay {t_replay:.1f} s "
+            f"= {t_sim + t_replay:.1f} s"
+        )
+    print(f"load average at the end: {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

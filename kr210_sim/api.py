@@ -131,6 +131,8 @@ class RunReport(Report):
         video_frames: Frames in it.
         video_error: Why the video could not be made (then :func:`run` raised), or None.
         plot_paths: PNG plots written.
+        record_path: The recording written (``record=``), or None.
+        record_frames: Frames in it.
     """
 
     cycles: tuple[CycleResult, ...] = ()
@@ -138,6 +140,8 @@ class RunReport(Report):
     video_frames: int = 0
     video_error: str | None = None
     plot_paths: tuple[Path, ...] = ()
+    record_path: Path | None = None
+    record_frames: int = 0
 
     @property
     def interrupted_by(self) -> str | None:
@@ -230,6 +234,9 @@ def run(
     out: TextIO | None = None,
     progress: TextIO | None = None,
     cell: str | Path | None = None,
+    record: str | Path | None = None,
+    record_rate: float = 30.0,
+    render_workers: int | None = None,
 ) -> RunReport:
     """Run and score pick-and-place cycles (``python -m kr210_sim run``).
 
@@ -248,6 +255,9 @@ def run(
         out: Stream for the one-line-per-cycle output (None: logger ``kr210_sim.api``).
         progress: Stream for the video's progress bar (None: stderr).
         cell: A cell file (TOML) to compile and run instead of a scene (``--cell``).
+        record: Write a recording of the run here (``.npz``; ``replay`` renders it).
+        record_rate: Frames per simulated second of the recording [Hz].
+        render_workers: Processes that render the video (default: one per core).
 
     Returns:
         The run's report; ``to_dict()`` is the JSON ``run --report`` writes.
@@ -286,6 +296,9 @@ def run(
         scene=_path(scene, "scene"),
         ik=user_ik,
         cell=_path(cell, "cell"),
+        record=_path(record, "record"),
+        record_rate=record_rate,
+        render_workers=render_workers,
     )
     result = RunReport(
         job.report,
@@ -295,6 +308,8 @@ def run(
         video_frames=job.video_frames,
         video_error=job.video_error,
         plot_paths=tuple(job.plot_paths),
+        record_path=_path(record, "record") if job.record_frames else None,
+        record_frames=job.record_frames,
     )
     if job.interrupted is not None:
         raise RunInterrupted(getattr(job.interrupted, "signum", 2), result) from job.interrupted

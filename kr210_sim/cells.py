@@ -384,6 +384,19 @@ def _compile_cached(cell: CellConfig) -> mujoco.MjModel:
         raise Kr210SimError(f"cell {cell.name} does not load: {exc}") from exc
 
 
+def model_at(path: Path | str | None) -> mujoco.MjModel:
+    """The model of ``path``: a cell file (``.toml``) compiled, an MJCF scene loaded, or the
+    committed scene for None (what recordings and evaluation workers name as their "scene").
+
+    Raises:
+        ConfigError: A bad cell file.
+        SceneError: When the scene cannot be loaded.
+    """
+    if path is not None and Path(path).suffix.lower() == ".toml":
+        return model_for(None, Path(path))
+    return model_for(Path(path) if path is not None else None, None)
+
+
 def model_for(scene: Path | None = None, cell: Path | None = None) -> mujoco.MjModel:
     """The model a command simulates: ``--cell`` compiled, ``--scene`` loaded, or the committed
     scene (a copy: callers may change it).

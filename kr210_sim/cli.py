@@ -1,8 +1,9 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
-Commands: ``run`` (the main job), ``view`` (the same run live in MuJoCo Studio), ``evaluate``,
-``ik-check``, ``demos``, ``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1
-a run below its pass bar (or an IK failing a case), 2 a usage error or a failure with a one-line
+Commands: ``run`` (the main job), ``replay`` (render a recording of a run to MP4), ``view`` (the
+same run live in MuJoCo Studio), ``evaluate``, ``ik-check``, ``check``, ``demos``,
+``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run below its pass
+bar (or an IK failing a case), 2 a usage error or a failure with a one-line
 message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
 completed so far is still written).
 """
@@ -20,6 +21,7 @@ from kr210_sim import __version__
 from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
 from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
+from kr210_sim.progress import ProgressLine
 
 if TYPE_CHECKING:
     from kr210_sim.api import RunReport
@@ -30,6 +32,7 @@ DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
 DEFAULT_DEMOS = Path("demos/pick_place.hdf5")
+DEFAULT_RECORD_RATE = 30
 
 
 class _Parser(argparse.ArgumentParser):
@@ -137,6 +140,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = VideoSettings(path=args.video, **given)
     elif given:
         raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
+    if args.render_workers is not None and video is None:
+        raise ConfigError("--render-workers needs --video PATH")
+    if args.record_rate is not None and args.record is None:
+        raise ConfigError("--record-rate needs --record PATH")
     interrupted: RunInterrupted | None = None
     try:
         result = run(
@@ -151,6 +158,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             cell=args.cell,
             report=args.report,
             out=sys.stdout,
+            record=args.record,
+            record_rate=args.record_rate or DEFAULT_RECORD_RATE,
+            render_workers=args.render_workers,
         )
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]
@@ -188,12 +198,78 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
             f"{1e6 * t['per_call_max']:.1f} us max per call\n"
         )
     out.write(f"  report: {result.path}\n")
+    if result.record_path is not None and result.record_frames:
+        size = result.record_path.stat().st_size / 1e6
+        out.write(
+            f"  recording: {result.record_path} ({result.record_frames} frames, {size:.2f} MB)\n"
+        )
     if video is not None and result.video_error is None:
         frames = result.video_frames
         written = f"({frames} frames)" if frames else "not written (no frames)"
         out.write(f"  video: {video.path} {written}\n")
     if result.plot_paths:
         out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from kr210_sim.cells import model_at
+    from kr210_sim.outputs import check_distinct, check_writable, is_stream
+    from kr210_sim.paths import SCENE_PATH
+    from kr210_sim.recording import check_model, read_recording
+    from kr210_sim.replay import default_workers, render_recording
+    from kr210_sim.video import VideoSettings
+
+    rec = read_recording(args.recording)
+    recorded_scene = rec.meta.get("scene")
+    scene = (
+        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
+    )
+    model = model_at(scene)
+    check_model(args.recording, rec, model)
+    # Defaults: the run's own video settings when it had a video, else the video defaults.
+    made: dict[str, Any] = dict(rec.meta.get("video") or {})
+    if "cameras" in made:
+        made["cameras"] = tuple(made["cameras"])
+    given = {
+        k: v
+        for k, v in (
+            ("cameras", tuple(args.camera) if args.camera else None),
+            ("width", args.width),
+            ("height", args.height),
+            ("fps", args.fps),
+            ("quality", args.quality),
+        )
+        if v is not None
+    }
+    fps = given.get("fps", made.get("fps", round(rec.rate)))
+    path = args.video if args.video is not None else args.recording.with_suffix(".mp4")
+    video = VideoSettings(path=path, **{**made, **given, "fps": fps})
+    check_writable(video.path)
+    if is_stream(video.path):
+        raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
+    check_distinct(
+        {"--video": video.path},
+        {"the recording": args.recording, "--scene": scene if scene is not None else SCENE_PATH},
+    )
+    workers = args.workers if args.workers is not None else default_workers()
+    line = ProgressLine(sys.stderr)
+    total = rec.frames if fps == rec.rate else None
+
+    def progress(frames: int, sim_time: float) -> None:
+        if line.due():
+            of = f"/{total}" if total else ""
+            line.show(f"replay: {frames}{of} frames  sim {sim_time:5.1f} s  {line.elapsed:4.0f} s")
+
+    frames, interrupted = render_recording(rec, model, video, workers, progress)
+    line.end(f"replay: {frames} frames in {line.elapsed:.1f} s on {workers} worker(s)")
+    written = f"({frames} frames)" if frames else "not written (no frames)"
+    sys.stdout.write(f"  video: {video.path} {written}\n")
+    if interrupted is not None:
+        sys.stderr.write(
+            f"kr210_sim: interrupted ({signal_name(interrupted)}); frames so far kept\n"
+        )
+        return exit_code(interrupted)
+    return 0
 
 
 def _speed(text: str) -> float:
@@ -229,6 +305,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
             raise ConfigError("--joints has no task to step through: drop --demo")
         run_joints(settings)
         return 0
+    if args.replay is not None:
+        return _view_replay(args, settings)
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args.ik)
@@ -248,6 +326,35 @@ def _cmd_view(args: argparse.Namespace) -> int:
         f"cycles succeeded (pass bar {args.min_success:.0%})\n"
     )
     return 0 if passed else 1
+
+
+def _view_replay(args: argparse.Namespace, settings: Any) -> int:
+    """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
+    from kr210_sim.cells import model_at
+    from kr210_sim.live import LiveSettings, replay_view
+    from kr210_sim.recording import check_model, read_recording
+
+    if args.demo:
+        raise ConfigError("--replay plays a recording: drop --demo")
+    rec = read_recording(args.replay)
+    recorded_scene = rec.meta.get("scene")
+    scene = (
+        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
+    )
+    model = model_at(scene)
+    check_model(args.replay, rec, model)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    result = replay_view(rec, model, settings, live)
+    sys.stdout.write(
+        f"  replay: {result.frames}/{rec.frames} frames at {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x)\n"
+    )
+    if result.interrupted is not None:
+        if isinstance(result.interrupted, KeyboardInterrupt):
+            return exit_code(result.interrupted)
+        sys.stderr.write(f"kr210_sim: {result.interrupted}\n")
+        return 130
+    return 0
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
@@ -275,6 +382,12 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         if find_spec("ray") is None:
             raise ConfigError(INSTALL_HINT)
     check_writable(args.report)
+    if args.record_failures is not None:
+        from kr210_sim.outputs import check_folder
+
+        if args.ik is not None:
+            raise ConfigError("--record-failures cannot replay episodes planned with --ik yet")
+        check_folder(args.record_failures)
     model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
     outcome = evaluate(config, report=args.report, resume=args.resume)
     report = outcome.report
@@ -300,6 +413,16 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
         f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
     )
+    if args.record_failures is not None and outcome.signal is None:
+        from kr210_sim.recording import record_failures
+
+        made = record_failures(
+            report["failed_episodes"],
+            config.randomize,
+            args.record_failures,
+            config.cell or config.scene,
+        )
+        out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:
         name = signal.Signals(outcome.signal).name
         sys.stderr.write(
@@ -440,7 +563,53 @@ def build_parser() -> argparse.ArgumentParser:
         help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
     )
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
+    run.add_argument(
+        "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
+    )
+    run.add_argument(
+        "--record-rate",
+        type=_fps,
+        default=None,
+        help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})",
+    )
+    run.add_argument(
+        "--render-workers",
+        type=_positive_int,
+        default=None,
+        help="processes rendering the video (one per core; 1: render in this process)",
+    )
     run.set_defaults(func=_cmd_run)
+
+    rp = sub.add_parser("replay", help="render a recording (run --record) to MP4")
+    rp.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
+    rp.add_argument("--video", type=Path, default=None, help="MP4 path (default: REC with .mp4)")
+    rp.add_argument(
+        "--camera",
+        action="append",
+        default=None,
+        help="camera (default: the run's, else overview); repeat to tile views side by side",
+    )
+    rp.add_argument("--width", type=_multiple_of_16, default=None, help="view width [px] (640)")
+    rp.add_argument("--height", type=_multiple_of_16, default=None, help="height [px] (480)")
+    rp.add_argument(
+        "--fps", type=_fps, default=None, help="frames per simulated s (the recording's rate)"
+    )
+    rp.add_argument(
+        "--quality", choices=("fast", "medium", "high"), default=None, help="as for run (medium)"
+    )
+    rp.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help="render processes (one per core; 1: render in this process)",
+    )
+    rp.add_argument(
+        "--scene",
+        type=Path,
+        default=None,
+        help="MJCF scene the recording was made with (default: the one it names, else ours)",
+    )
+    rp.set_defaults(func=_cmd_replay)
 
     view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
     _add_run_options(view, report=DEFAULT_VIEW_REPORT)
@@ -478,6 +647,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     view.add_argument(
         "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
+    )
+    view.add_argument(
+        "--replay",
+        type=Path,
+        default=None,
+        metavar="REC",
+        help="play a recording (run --record) instead of running the cycles",
     )
     view.add_argument(
         "--exit-when-done",
@@ -528,6 +704,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ev.add_argument(
         "--min-success", type=_fraction, default=0.995, help="pass bar for exit 0 (0.995)"
+    )
+    ev.add_argument(
+        "--record-failures",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="record every failed episode as DIR/<seed>_<reason>.npz (replay renders it)",
     )
     ev.set_defaults(func=_cmd_evaluate)
 

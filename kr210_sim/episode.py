@@ -38,11 +38,9 @@ def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
     global _PRISTINE
     key = str(scene) if scene is not None else None
     if _PRISTINE is None or _PRISTINE[0] != key:
-        from kr210_sim.cells import model_for
+        from kr210_sim.cells import model_at
 
-        path = Path(scene) if scene is not None else None
-        cell = path is not None and path.suffix.lower() == ".toml"
-        _PRISTINE = (key, model_for(None, path) if cell else model_for(path, None))
+        _PRISTINE = (key, model_at(scene))
     return _PRISTINE[1]
 
 

@@ -47,6 +47,11 @@ class VideoFailedError(RenderError):
         self.report = report
 
 
+class RecordingError(Kr210SimError):
+    """A recording cannot be read (truncated, not a recording, an unknown format version, missing
+    or inconsistent arrays) or was made with another model or MuJoCo version."""
+
+
 class PlanningError(Kr210SimError):
     """A trajectory could not be planned (limits violated, ruckig failed, ...)."""
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import FrameType
 
 #: Signals turned into :class:`Interrupted` by :func:`terminate_as_interrupt`.
@@ -69,3 +69,35 @@ def terminate_as_interrupt() -> Iterator[None]:
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """Within the block, Ctrl-C, SIGTERM and SIGHUP are held and acted on when it ends.
+
+    For short steps that must not be cut in half (a message half read from a pipe, a frame
+    taken off a queue but not yet written): the interrupt is raised after the step, where the
+    state is consistent. Only signals with a Python handler are held; outside the main thread
+    this does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum: int, frame: FrameType | None) -> None:
+        held.append(signum)
+
+    previous: dict[int, Callable[[int, FrameType | None], object]] = {}
+    for sig in (signal.SIGINT, *HANDLED):
+        old = signal.getsignal(sig)
+        if callable(old):
+            previous[int(sig)] = old
+            signal.signal(sig, hold)
+    try:
+        yield
+    finally:
+        for num, handler in previous.items():
+            signal.signal(num, handler)
+        if held:
+            previous[held[0]](held[0], None)  # raises KeyboardInterrupt / Interrupted

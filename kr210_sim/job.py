@@ -3,10 +3,11 @@
 This is what ``python -m kr210_sim run`` does, as a function the CLI and tests call. Order of
 work: check every output path first (a usage error costs nothing: unwritable paths and outputs
 that clash with each other or with an input are refused before anything runs), run the cycles
-(with the video recorder as a step hook), append the closing bin shot, then write the report,
-finish the video and write the plots. The report is written even when the video fails or the
-run is interrupted (Ctrl-C, SIGTERM): the failure is reported afterwards, and an interrupted
-video keeps the frames recorded so far.
+(with the state recorders as step hooks: one keeps the states for ``--record``, one feeds the
+video's render pool, so rendering overlaps the simulation), append the closing bin shot, then
+write the report, the recording, finish the video and write the plots. The report is written
+even when the video fails or the run is interrupted (Ctrl-C, SIGTERM): the failure is reported
+afterwards, and an interrupted video keeps the frames of the states simulated so far.
 """
 
 from __future__ import annotations
@@ -24,9 +25,19 @@ from kr210_sim.interrupts import signal_name
 from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
 from kr210_sim.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.plots import PLOT_NAMES
+from kr210_sim.recording import (
+    DEFAULT_RATE,
+    DEFAULT_TAIL,
+    StateRecorder,
+    check_recording_path,
+    model_identity,
+    run_meta,
+    write_recording,
+)
+from kr210_sim.replay import RenderPool, default_workers
 from kr210_sim.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.runner import CycleResult, RunConfig, Runner
-from kr210_sim.video import FrameRecorder, Progress, VideoSettings, overlay_lines
+from kr210_sim.video import Progress, VideoSettings, _one_line
 
 import mujoco  # isort: skip
 
@@ -44,6 +55,7 @@ class JobResult:
         plot_paths: PNG plots written.
         sim_time: Simulated time at the end of the job, closing shot included [s].
         results: The cycles run, as the runner scored them.
+        record_frames: Frames in the recording (0 without one).
     """
 
     report: dict[str, Any]
@@ -54,6 +66,7 @@ class JobResult:
     plot_paths: list[Path] = field(default_factory=list)
     sim_time: float = 0.0
     results: list[CycleResult] = field(default_factory=list)
+    record_frames: int = 0
 
 
 def check_outputs(
@@ -63,6 +76,7 @@ def check_outputs(
     scene: Path | None,
     ik: UserIk | None = None,
     cell: Path | None = None,
+    record: Path | None = None,
 ) -> None:
     """Refuse, before anything runs, outputs that cannot be written or that clash.
 
@@ -78,6 +92,9 @@ def check_outputs(
         if is_stream(video.path):
             raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
         outputs["--video"] = video.path
+    if record is not None:
+        check_recording_path(record)
+        outputs["--record"] = record
     if plots_dir is not None:
         check_folder(plots_dir, PLOT_NAMES)
         outputs.update({f"--plots {name}": plots_dir / name for name in PLOT_NAMES})
@@ -115,8 +132,11 @@ def run_job(
     scene: Path | None = None,
     ik: UserIk | None = None,
     cell: Path | None = None,
+    record: Path | None = None,
+    record_rate: float = DEFAULT_RATE,
+    render_workers: int | None = None,
 ) -> JobResult:
-    """Run ``config.cycles`` cycles and write the report (and video, and plots).
+    """Run ``config.cycles`` cycles and write the report (and recording, video and plots).
 
     Args:
         config: The run's settings.
@@ -129,11 +149,16 @@ def run_job(
         cell: Cell file (TOML), compiled instead of a scene.
         ik: A user's IK function to plan with (default: our closed form); the report's summary
             then has an ``ik`` block (SPEC, calls, wall time per call).
+        record: Where to write a recording of the run (``.npz``), or None.
+        record_rate: Frames per simulated second of the recording [Hz].
+        render_workers: Processes that render the video (default: one per core; 1 renders in
+            this process).
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
         could not be made; ``interrupted`` when Ctrl-C or SIGTERM stopped the cycles (the report
-        then holds those finished, and the video the frames so far).
+        then holds those finished, the recording their states, and the video the frames of the
+        states simulated so far).
 
     Raises:
         ConfigError: When an output path cannot be written or clashes with another path (checked
@@ -141,10 +166,15 @@ def run_job(
         SceneError: When the scene cannot be loaded.
     """
     out = out or sys.stdout
-    check_outputs(report_path, video, plots_dir, scene, ik, cell)
-    # Without --scene or --cell the runner loads the committed scene itself, after the URDF.
-    model = model_for(scene, cell) if scene is not None or cell is not None else None
-    if model is not None:
+    check_outputs(report_path, video, plots_dir, scene, ik, cell, record)
+    # Without --scene or --cell the runner loads the committed scene itself, after the URDF
+    # (a recording or a video needs the model's identity first: then it is loaded here).
+    model = identity = None
+    if scene is not None or cell is not None or record is not None or video is not None:
+        model = model_for(scene, cell)
+        identity = model_identity(model)  # of the model as loaded, before the run changes it
+    if scene is not None or cell is not None:
+        assert model is not None
         refuse_unservable(model)
     runner = Runner(
         config,
@@ -152,23 +182,28 @@ def run_job(
         keep_recordings=plots_dir is not None,
         ik=ik,
     )
-    recorder: FrameRecorder | None = None
+    geoms = runner.cell.handles.target_geoms
+    recorders: list[StateRecorder] = []
+    states: StateRecorder | None = None
+    if record is not None:
+        states = StateRecorder(runner.model, geoms, runner.status, rate=record_rate)
+        recorders.append(states)
+    pool: RenderPool | None = None
     progress: Progress | None = None
     video_error: str | None = None
     if video is not None:
         progress = Progress(config.cycles, progress_stream, tail=video.tail)
-        status = runner.status
-        sim = runner.cell
-
-        def lines() -> list[str]:
-            return overlay_lines(status, sim.time)
-
+        workers = render_workers if render_workers is not None else default_workers()
         try:  # a bad camera or size raises ConfigError here, before anything has run
-            recorder = FrameRecorder(runner.model, video, lines, progress)
+            pool = RenderPool(runner.model, video, geoms, workers, progress)
         except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
             video_error = str(exc)
         else:
-            runner.cell.hooks.append(recorder)
+            sink = _guarded(pool)
+            recorders.append(
+                StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
+            )
+    runner.cell.hooks.extend(recorders)
 
     wall0 = time.perf_counter()
     interrupted: KeyboardInterrupt | None = None
@@ -179,9 +214,10 @@ def run_job(
             out.flush()
             if progress is not None:
                 progress.cycle_done(i, runner.cell.time)
-        if recorder is not None and recorder.error is None:
-            recorder.override = recorder.tail_cameras()
-            runner.idle(recorder.settings.tail)
+        if recorders:  # the closing shot: the bin with the cylinders in it
+            for r in recorders:
+                r.tail = True
+            runner.idle(video.tail if video is not None else DEFAULT_TAIL)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.interrupts)
         interrupted = exc
         sys.stderr.write(
@@ -189,6 +225,8 @@ def run_job(
             "writing the report of those\n"
         )
     wall = time.perf_counter() - wall0
+    for r in recorders:
+        runner.cell.hooks.remove(r)
     report = build_report(
         config,
         runner.results,
@@ -209,13 +247,23 @@ def run_job(
         sim_time=runner.cell.time,
         results=list(runner.results),
     )
+    if states is not None and record is not None and identity is not None:
+        settings = None
+        if video is not None:
+            settings = {
+                "cameras": list(video.cameras),
+                "width": video.width,
+                "height": video.height,
+                "fps": video.fps,
+                "quality": video.quality,
+            }
+        meta = run_meta(config, identity, scene if scene is not None else cell, report, settings)
+        result.record_frames = states.frames
+        write_recording(record, states.recording(meta))
 
-    if recorder is not None:
-        runner.cell.hooks.remove(recorder)
-        try:
-            result.video_frames = recorder.close()
-        except RenderError as exc:
-            result.video_error = str(exc)
+    if pool is not None:
+        result.video_frames, result.video_error, stopped = _finish_video(pool)
+        result.interrupted = result.interrupted or stopped
         if progress is not None:
             progress.finish(result.video_frames)
     if plots_dir is not None and runner.results:
@@ -223,3 +271,37 @@ def run_job(
 
         result.plot_paths = write_plots(plots_dir, runner.results, runner.recordings, runner.robot)
     return result
+
+
+def _guarded(pool: RenderPool) -> Any:
+    """The video recorder's sink: frames go to ``pool`` until it fails; then the video is
+    dropped (its error kept on the pool) and the simulation goes on unchanged. An interrupt is
+    not an error and goes through."""
+
+    def sink(*frame: Any) -> None:
+        if pool.error is not None:
+            return
+        try:
+            pool.feed(*frame)
+        except Exception as exc:
+            pool.error = exc
+            pool.abort(keep=False)
+
+    return sink
+
+
+def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt | None]:
+    """Render what is left and close the MP4: (frames, error, interrupt). Ctrl-C here keeps the
+    frames so far."""
+    if pool.error is not None:
+        return 0, f"video recording failed: {_one_line(pool.error)}", None
+    try:
+        return pool.finish(), None, None
+    except KeyboardInterrupt as exc:
+        try:
+            return pool.abort(keep=True), None, exc
+        except RenderError as err:
+            return 0, str(err), exc
+    except RenderError as exc:
+        pool.abort(keep=False)
+        return 0, str(exc), None

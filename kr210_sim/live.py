@@ -425,3 +425,80 @@ def run_joints(settings: ViewerSettings, out: TextIO | None = None) -> None:
         _hold_open(pose.tick)
     finally:
         viewer.close()
+
+
+# -- replay ----------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class ReplayViewResult:
+    """What ``view --replay`` showed.
+
+    Attributes:
+        frames: Recorded frames published.
+        real_time_factor: Simulated over wall time of the playback.
+        interrupted: The interrupt (Ctrl-C, SIGTERM) or closed viewer that stopped it, or None.
+    """
+
+    frames: int
+    real_time_factor: float
+    interrupted: BaseException | None
+
+
+def replay_view(
+    recording: Any,
+    model: Any,
+    settings: ViewerSettings,
+    live: LiveSettings,
+    out: TextIO | None = None,
+    on_ready: Callable[[LiveViewer], None] | None = None,
+) -> ReplayViewResult:
+    """Play a recording (:class:`kr210_sim.recording.Recording`, checked against ``model``) in
+    the viewer at ``live.speed`` x real time: each recorded state is published as the live view
+    publishes the simulated one, with the same panel text.
+
+    Args:
+        recording: The recording.
+        model: The model it was made with.
+        settings: Viewer settings (demo and joint modes do not apply).
+        live: Speed, and whether to return at the end instead of holding the last frame.
+        out: Where the URL goes (stdout).
+        on_ready: Called with the open viewer before the first frame.
+
+    Raises:
+        ConfigError: A busy port, no display for ``--window``, an unknown camera.
+    """
+    import mujoco
+
+    from kr210_sim.recording import apply_frame
+
+    out = out or sys.stdout
+    data = mujoco.MjData(model)
+    viewer = LiveViewer(model, settings)
+    geoms = recording.target_geoms
+    times = recording.arrays["time"]
+    shown = 0
+    interrupted: BaseException | None = None
+    try:
+        _announce(viewer, settings, out)
+        if on_ready is not None:
+            on_ready(viewer)
+        wall0 = time.perf_counter()
+        try:
+            for i in range(recording.frames):
+                apply_frame(model, data, recording.arrays["qpos"][i], geoms, recording.shapes_at(i))
+                delay = wall0 + (times[i] - times[0]) / live.speed - time.perf_counter()
+                if delay > 0:
+                    time.sleep(delay)
+                viewer.publish(data, recording.status(i).lines())
+                shown += 1
+        except (KeyboardInterrupt, ViewerClosed) as exc:
+            interrupted = exc
+        wall = time.perf_counter() - wall0
+        rtf = float(times[shown - 1] - times[0]) / wall if shown > 1 and wall > 0 else 0.0
+        if interrupted is None and not live.exit_when_done:
+            out.write("replay done; the viewer stays open: Ctrl-C to quit\n")
+            out.flush()
+            last = recording.status(shown - 1).lines()
+            _hold_open(lambda: viewer.publish(data, last))
+        return ReplayViewResult(shown, rtf, interrupted)
+    finally:
+        viewer.close()

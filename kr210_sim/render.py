@@ -46,6 +46,18 @@ def check_camera(model: mujoco.MjModel, name: str) -> int:
     return int(cid)
 
 
+def check_frame_size(width: int, height: int) -> None:
+    """Refuse a frame size no renderer takes.
+
+    Raises:
+        ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
+    """
+    if width < 1 or height < 1:
+        raise ConfigError(f"frame size must be positive, got {width}x{height}")
+    if width > MAX_FRAME or height > MAX_FRAME:
+        raise ConfigError(f"frame {width}x{height} is too large: at most {MAX_FRAME} px a side")
+
+
 def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """An offscreen renderer for ``model`` at ``width`` x ``height`` [px].
 
@@ -56,10 +68,7 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
         ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
         RenderError: When no OpenGL backend can be started.
     """
-    if width < 1 or height < 1:
-        raise ConfigError(f"frame size must be positive, got {width}x{height}")
-    if width > MAX_FRAME or height > MAX_FRAME:
-        raise ConfigError(f"frame {width}x{height} is too large: at most {MAX_FRAME} px a side")
+    check_frame_size(width, height)
     import kr210_sim
 
     gl = os.environ.get("MUJOCO_GL", "unset")

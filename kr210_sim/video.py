@@ -1,24 +1,22 @@
-"""Offscreen video export: frames sampled in simulated time, overlaid, encoded to H.264 MP4.
+"""Video export: settings, the text overlay and the encoder (H.264 MP4), and the progress bar.
 
-A :class:`FrameRecorder` is a step hook of :class:`kr210_sim.control.Cell`: after every physics
-step it checks whether the next frame is due (frames are spaced ``1 / fps`` of *simulated*
-time, so the video plays at real speed) and renders it from each requested camera. Rendering
-only reads ``MjData``: a run with and without video gives the same report.
+Frames are spaced ``1 / fps`` of *simulated* time, so the video plays at real speed. They are
+taken as states by :class:`kr210_sim.recording.StateRecorder` (a step hook that only reads
+``MjData``: a run with and without video gives the same report) and rendered, in parallel, by
+:class:`kr210_sim.replay.RenderPool`, which hands them in order to the encoder here.
 
-Render and encode overlap: the main thread renders (the OpenGL context lives there) and hands
-each frame to a writer thread through a small bounded queue; that thread draws the text overlay
-and pipes the frame to ffmpeg (imageio-ffmpeg), which encodes in its own process. Rendering
-the next frame thus proceeds while the previous one is overlaid, piped and encoded.
+The encoder (:class:`_Writer`) works on a background thread: it draws the text overlay and pipes
+the frame to ffmpeg (imageio-ffmpeg), which encodes in its own process, so the next frame is
+received while the previous one is overlaid, piped and encoded.
 """
 
 from __future__ import annotations
 
 import os
 import queue
+import signal
 import threading
-import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +26,6 @@ import numpy.typing as npt
 from kr210_sim.errors import ConfigError, RenderError
 from kr210_sim.outputs import commit, discard, temp_beside
 from kr210_sim.progress import ProgressLine, bar
-from kr210_sim.render import check_camera, make_renderer
-
-import mujoco  # isort: skip
 
 #: Quality presets: (shadows, shadow map size [px], MSAA samples).
 QUALITY: dict[str, tuple[bool, int, int]] = {
@@ -251,6 +246,11 @@ class _Writer:
         self.thread.start()
 
     def _run(self) -> None:
+        # ffmpeg is started (forked) from this thread on the first frame. A Ctrl-C to the
+        # process group that lands in the child between fork and exec would raise in the
+        # child's Python code ("Exception ignored ... _after_fork"): block the interrupt
+        # signals here (the main thread still gets them), so the child inherits them blocked.
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
         while True:
             item = self.queue.get()
             if item is None:
@@ -268,6 +268,18 @@ class _Writer:
         if self.error is not None:
             raise RenderError(f"video encoding failed: {self.error}")
         self.queue.put((frame, lines))
+
+    def discard(self) -> None:
+        """Stop encoding and remove the temporary file (an earlier file at the destination stays
+        as it was)."""
+        self.error = self.error or RenderError("discarded")
+        self.queue.put(None)
+        self.thread.join()
+        try:
+            self.writer.close()
+        except Exception:
+            pass
+        discard(self.tmp)
 
     def close(self) -> None:
         """Finish encoding and move the file into place.
@@ -291,103 +303,6 @@ class _Writer:
             commit(self.tmp, self.path)
         except ConfigError as exc:
             raise RenderError(str(exc)) from exc
-
-
-@dataclass
-class FrameRecorder:
-    """A cell step hook that renders frames at ``fps`` of simulated time.
-
-    Args:
-        model: The cell model (its render-only quality fields are set from the settings).
-        settings: What to record.
-        status: Called for the overlay text lines at each frame.
-        progress: Optional callback ``(frames, sim_time)`` after each frame.
-    """
-
-    model: mujoco.MjModel
-    settings: VideoSettings
-    status: Callable[[], list[str]]
-    progress: Callable[[int, float], None] | None = None
-    frames: int = 0
-    render_seconds: float = 0.0
-    _renderer: Any = field(default=None, repr=False)
-    _writer: _Writer | None = field(default=None, repr=False)
-    _next_t: float = 0.0
-    _cameras: list[int] = field(default_factory=list)
-    #: Cameras used instead of the settings' ones (the closing shot), or None.
-    override: list[int] | None = None
-    #: The error that stopped recording, if any (recording stops; the run goes on).
-    error: Exception | None = None
-
-    def __post_init__(self) -> None:
-        s = self.settings
-        self._cameras = [check_camera(self.model, c) for c in s.cameras]
-        shadows, shadow_size, msaa = QUALITY[s.quality]
-        self.model.vis.quality.shadowsize = shadow_size
-        self.model.vis.quality.offsamples = msaa
-        self._shadows = shadows
-        self._renderer = make_renderer(self.model, s.width, s.height)
-        try:
-            self._writer = _Writer(s)
-        except BaseException:
-            self._renderer.close()
-            raise
-
-    def _render(self, data: mujoco.MjData, cameras: list[int]) -> npt.NDArray[np.uint8]:
-        t = time.perf_counter()
-        views = []
-        for cam in cameras:
-            self._renderer.update_scene(data, camera=cam)
-            self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self._shadows
-            views.append(self._renderer.render())
-        self.render_seconds += time.perf_counter() - t
-        return views[0] if len(views) == 1 else np.concatenate(views, axis=1)
-
-    def __call__(self, cell: Any) -> None:
-        """Step hook: render a frame when one is due. An error is kept in :attr:`error`,
-        recording stops and the simulation goes on unchanged; an interrupt (Ctrl-C, SIGTERM)
-        is not an error and goes through, so the run stops and the frames so far are kept."""
-        data = cell.data
-        if self.error is not None or data.time + 1e-9 < self._next_t:
-            return
-        try:
-            self.capture(data, self.override)
-        except Exception as exc:
-            self.error = exc
-
-    def capture(self, data: mujoco.MjData, cameras: list[int] | None = None) -> None:
-        """Render and queue one frame now (and schedule the next one)."""
-        assert self._writer is not None
-        frame = self._render(data, cameras or self._cameras)
-        self._writer.put(frame, self.status())
-        self.frames += 1
-        self._next_t = (self.frames) / self.settings.fps
-        if self.progress is not None:
-            self.progress(self.frames, float(data.time))
-
-    def tail_cameras(self) -> list[int]:
-        """Cameras of the closing shot: the bin in the first view."""
-        bin_cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, "bin")
-        if bin_cam < 0:
-            return self._cameras
-        return [bin_cam, *self._cameras[1:]]
-
-    def close(self) -> int:
-        """Finish the file; return the number of frames written.
-
-        Raises:
-            RenderError: When encoding failed.
-        """
-        try:
-            if self._writer is not None:
-                self._writer.close()
-        finally:
-            if self._renderer is not None:
-                self._renderer.close()
-                self._renderer = None
-        if self.error is not None:
-            raise RenderError(f"video recording failed: {_one_line(self.error)}") from self.error
-        return self._writer.frames if self._writer is not None else 0
 
 
 def _one_line(exc: BaseException) -> str:

@@ -108,3 +108,24 @@ def test_stdout_on_a_full_device_does_not_lose_the_report(tmp_path: Path) -> Non
         "dropped, reports are still written"
     ]
     assert json.loads(report.read_text())["summary"]["cycles"] == 2
+
+
+def test_deferred_holds_an_interrupt_until_the_step_is_done() -> None:
+    from kr210_sim.interrupts import Interrupted, deferred, terminate_as_interrupt
+
+    steps: list[str] = []
+    with terminate_as_interrupt(), pytest.raises(Interrupted) as caught:
+        with deferred():
+            os.kill(os.getpid(), signal.SIGTERM)
+            steps.append("finished")  # the step runs to its end
+        steps.append("after")  # never reached: the held SIGTERM is raised at the block's end
+    assert steps == ["finished"] and caught.value.signum == signal.SIGTERM
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+    try:
+        with pytest.raises(KeyboardInterrupt), deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            steps.append("again")
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert steps[-1] == "again"

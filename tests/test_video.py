@@ -157,10 +157,10 @@ def test_no_gl_backend_names_mujoco_gl(
     def no_gl(*args: object, **kwargs: object) -> None:
         raise mujoco.FatalError("gladLoadGL error")
 
-    monkeypatch.setattr(mujoco, "Renderer", no_gl)
+    monkeypatch.setattr(mujoco, "Renderer", no_gl)  # in this process: render here
     report = tmp_path / "r.json"
     argv = ["run", "--cycles", "1", "--slot", "1", "--report", str(report)]
-    assert main([*argv, "--video", str(tmp_path / "v.mp4")]) == 2
+    assert main([*argv, "--video", str(tmp_path / "v.mp4"), "--render-workers", "1"]) == 2
     line = _one_line_error(capsys)
     assert "MUJOCO_GL" in line and "libegl1" in line
     assert report.exists()

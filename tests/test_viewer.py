@@ -375,3 +375,28 @@ def test_browser_demo_waits_for_next_then_goes_on(
             continue
     view.wait_for("demo: next phase grasp", 1)
     assert view.count("demo: next phase") == 2  # one phase per Next
+
+
+def test_view_replay_plays_a_recording_at_the_asked_speed(tmp_path: Path) -> None:
+    from kr210_sim.live import replay_view
+    from kr210_sim.recording import read_recording
+
+    run_job(RunConfig(cycles=1, seed=3), tmp_path / "r.json", record=tmp_path / "r.npz")
+    rec = read_recording(tmp_path / "r.npz")
+    model = load_model()
+    opened: list[LiveViewer] = []
+    out = io.StringIO()
+    result = replay_view(
+        rec,
+        model,
+        ViewerSettings(port=free_port(), quality="fast"),
+        LiveSettings(speed=10.0, exit_when_done=True),
+        out=out,
+        on_ready=opened.append,
+    )
+    assert result.interrupted is None and result.frames == rec.frames
+    assert opened[0].syncs == rec.frames  # every recorded state went through publish
+    assert out.getvalue().startswith("viewer: http://127.0.0.1:")
+    assert 5.0 < result.real_time_factor < 10.5  # paced: never faster than asked
+    # The viewer's copy holds the last recorded positions.
+    assert np.array_equal(opened[0].shadow_data.qpos, rec.arrays["qpos"][-1])

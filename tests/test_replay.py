@@ -1,0 +1,176 @@
+"""Parallel rendering: the same frames as one process, replay = the live video, and interrupts."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import imageio.v2 as imageio
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from kr210_sim.cli import main
+from kr210_sim.errors import RenderError
+from kr210_sim.job import run_job
+from kr210_sim.recording import read_recording
+from kr210_sim.replay import FrameRenderer, RenderPool, chunk_frames, render_recording
+from kr210_sim.runner import RunConfig
+from kr210_sim.scene import load_model
+from kr210_sim.video import VideoSettings
+
+pytestmark = pytest.mark.render
+
+CONFIG = RunConfig(cycles=1, seed=4, slot=5, randomize=True)
+SMALL = {"width": 160, "height": 128, "quality": "fast"}
+
+
+def _frames(path: Path) -> npt.NDArray[np.uint8]:
+    return np.stack([f for f in imageio.get_reader(path)])  # list() fails: len() is inf
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Any]:
+    """A randomised cycle filmed by two render processes at 10 fps, recorded at 30 Hz."""
+    folder = tmp_path_factory.mktemp("live")
+    video = VideoSettings(folder / "live.mp4", ("overview", "gripper"), fps=10, tail=1.0, **SMALL)
+    job = run_job(
+        CONFIG, folder / "run.json", video=video, record=folder / "run.npz", render_workers=2
+    )
+    assert job.video_error is None
+    return folder / "live.mp4", folder / "run.npz", job
+
+
+def test_replay_reproduces_the_live_video_frame_for_frame(
+    live: tuple[Path, Path, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    video, rec, job = live
+    out = tmp_path / "replay.mp4"
+    # One process now (the reference render); the run's own video settings are the defaults.
+    assert main(["replay", str(rec), "--video", str(out), "--workers", "1"]) == 0
+    assert f"({job.video_frames} frames)" in capsys.readouterr().out
+    a, b = _frames(video), _frames(out)
+    assert a.shape == b.shape == (job.video_frames, 128, 320, 3)
+    assert int(np.abs(a.astype(np.int16) - b).max()) == 0  # identical frames
+    assert video.read_bytes() == out.read_bytes()  # and, the encoder being deterministic, bytes
+    # The closing shot is in: the last frames show the bin camera, not the overview.
+    assert np.abs(a[-1, :, :160].astype(np.int16) - a[len(a) // 2, :, :160]).mean() > 10
+
+
+def test_parallel_frames_equal_a_single_process_render(
+    live: tuple[Path, Path, Any], tmp_path: Path
+) -> None:
+    """The pool's frames, read back before encoding, against frames rendered here."""
+    _, path, _ = live
+    rec = read_recording(path)
+    model = load_model()
+    settings = VideoSettings(tmp_path / "unused.mp4", ("gripper", "bin"), **SMALL)
+    picks = list(range(0, rec.frames, 3))
+    reference = FrameRenderer(load_model(), settings, rec.target_geoms)
+    expected = [
+        reference.render(rec.arrays["qpos"][i], rec.shapes_at(i), bool(rec.arrays["tail"][i]))
+        for i in picks
+    ]
+    reference.close()
+    got: list[npt.NDArray[np.uint8]] = []
+
+    class Capture(RenderPool):  # keep what the workers send instead of encoding it
+        def _write(self, frame: npt.NDArray[np.uint8]) -> None:
+            self._lines.popleft()
+            got.append(frame.copy())
+            self.written += 1
+
+    pool = Capture(model, settings, rec.target_geoms, workers=2)
+    assert pool.chunk == chunk_frames(settings) == 8
+    try:
+        for i in picks:
+            pool.feed(rec.arrays["qpos"][i], rec.shapes_at(i), rec.status(i), rec.arrays["tail"][i])
+        assert pool.finish() == len(picks)
+    except BaseException:
+        pool.abort(keep=False)
+        raise
+    assert len(got) == len(expected) > 2 * pool.chunk  # more than one chunk per worker
+    diff = max(
+        int(np.abs(g.astype(np.int16) - e).max()) for g, e in zip(got, expected, strict=True)
+    )
+    assert diff == 0
+    assert not multiprocessing.active_children()
+
+
+def test_replay_resamples_and_takes_other_cameras(
+    live: tuple[Path, Path, Any], tmp_path: Path
+) -> None:
+    _, rec, job = live
+    out = tmp_path / "bin.mp4"
+    argv = ["replay", str(rec), "--video", str(out), "--camera", "bin", "--fps", "5"]
+    assert main([*argv, "--width", "96", "--height", "64", "--workers", "2"]) == 0
+    frames = _frames(out)
+    assert frames.shape[1:] == (64, 96, 3)
+    assert abs(len(frames) - job.sim_time * 5) <= 1.5
+
+
+def test_a_render_that_fails_leaves_no_file_and_an_earlier_one_untouched(
+    live: tuple[Path, Path, Any], tmp_path: Path
+) -> None:
+    _, path, _ = live
+    rec = read_recording(path)
+    out = tmp_path / "v.mp4"
+    out.write_bytes(b"an earlier video")
+    settings = VideoSettings(out, ("overview",), **SMALL)
+    killed: list[int] = []
+
+    def kill_a_worker(frames: int, sim_time: float) -> None:
+        if frames == 20 and not killed:
+            child = multiprocessing.active_children()[0]
+            killed.append(child.pid or 0)
+            os.kill(child.pid or 0, signal.SIGKILL)
+
+    with pytest.raises(RenderError, match=r"render worker \d stopped"):
+        render_recording(rec, load_model(), settings, workers=2, progress=kill_a_worker)
+    assert out.read_bytes() == b"an earlier video"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.mp4"]
+    assert not multiprocessing.active_children()
+
+
+def test_ctrl_c_during_a_replay_keeps_a_playable_partial_mp4(
+    live: tuple[Path, Path, Any], tmp_path: Path
+) -> None:
+    _, rec, _ = live
+    out = tmp_path / "partial.mp4"
+    argv = [sys.executable, "-m", "kr210_sim", "replay", str(rec), "--video", str(out)]
+    argv += [
+        "--workers",
+        "2",
+        "--fps",
+        "30",
+        "--width",
+        "320",
+        "--height",
+        "240",
+        "--quality",
+        "high",
+    ]
+    proc = subprocess.Popen(
+        argv,
+        cwd=tmp_path,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a shell job would be
+    )
+    assert proc.stderr is not None
+    line = proc.stderr.readline()  # the first progress line: frames are being written
+    assert line.startswith("replay: "), line
+    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
+    stdout, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted (SIGINT)" in err
+    frames = _frames(out)
+    total = read_recording(rec).frames
+    assert 1 <= len(frames) < total // 2 and f"({len(frames)} frames)" in stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["partial.mp4"]
