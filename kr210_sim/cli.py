@@ -117,15 +117,9 @@ def _load_ik(spec: str | None) -> Any:
     return load_ik(spec)
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.api import RunInterrupted, RunReport, run
-    from kr210_sim.errors import VideoFailedError
-    from kr210_sim.video import VideoSettings
-
-    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
-    video = None
-    # The video options given on the command line; VideoSettings holds the defaults.
-    given: dict[str, Any] = {
+def _video_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The video options given on the command line (VideoSettings holds the defaults)."""
+    return {
         k: v
         for k, v in (
             ("cameras", tuple(args.camera) if args.camera else None),
@@ -136,6 +130,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
         if v is not None
     }
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from kr210_sim.api import RunInterrupted, RunReport, run
+    from kr210_sim.errors import VideoFailedError
+    from kr210_sim.video import VideoSettings
+
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    video = None
+    given = _video_options(args)
     if args.video is not None:
         video = VideoSettings(path=args.video, **given)
     elif given:
@@ -230,17 +234,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     made: dict[str, Any] = dict(rec.meta.get("video") or {})
     if "cameras" in made:
         made["cameras"] = tuple(made["cameras"])
-    given = {
-        k: v
-        for k, v in (
-            ("cameras", tuple(args.camera) if args.camera else None),
-            ("width", args.width),
-            ("height", args.height),
-            ("fps", args.fps),
-            ("quality", args.quality),
-        )
-        if v is not None
-    }
+    given = _video_options(args)
     fps = given.get("fps", made.get("fps", round(rec.rate)))
     path = args.video if args.video is not None else args.recording.with_suffix(".mp4")
     video = VideoSettings(path=path, **{**made, **given, "fps": fps})
