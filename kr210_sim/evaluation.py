@@ -287,7 +287,12 @@ def evaluate(
     identity = _identity(config)
     summary = EpisodeSummary()
     done = bytearray(n)  # 1 where the episode's record is counted: results are keyed by episode
-    log_path = episodes_path(check_writable(report)) if report is not None else None
+    from kr210_sim.outputs import is_stream
+
+    # The episodes file lives beside the report; a report sent to a device or a pipe
+    # (/dev/null, /dev/stdout) has no folder of its own to put it in: no episodes file then.
+    streamed = report is not None and is_stream(check_writable(report))
+    log_path = episodes_path(report) if report is not None and not streamed else None
     resuming = resume and log_path is not None and log_path.is_file()
     if resuming:
         assert log_path is not None

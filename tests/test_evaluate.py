@@ -234,3 +234,19 @@ def test_an_evaluation_of_another_cell_runs_in_it_and_says_how_to_replay(tmp_pat
     records = _lines(tmp_path / "e.episodes.jsonl")
     assert all(1 <= e["slot"] <= 8 for e in records)
     assert {e["target"]["position"][1] for e in records} <= {0.15, -0.95}
+
+
+def test_a_report_to_a_device_writes_no_episodes_file_beside_it(tmp_path: Path) -> None:
+    """`--report /dev/null` must not create /dev/null.episodes.jsonl (a private FIFO stands in
+    for the device here, read by a thread)."""
+    import threading
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    out = evaluate(EvalConfig(episodes=1, seed=1), report=fifo)
+    reader.join(30)
+    assert out.episodes_path is None and json.loads(got[0])["summary"]["episodes"] == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
