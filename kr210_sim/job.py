@@ -69,6 +69,30 @@ class JobResult:
     record_frames: int = 0
 
 
+def runner_report(
+    runner: Runner, wall_time: float, interrupted: BaseException | bool | None
+) -> dict[str, Any]:
+    """The report of the cycles ``runner`` ran (``run`` and ``view`` alike): its records, events
+    and cell, and the user's IK's call figures when one planned them.
+
+    Args:
+        runner: The runner after its cycles.
+        wall_time: Wall-clock time of the cycles [s].
+        interrupted: The interrupt that stopped them (or True), None/False when they all ran.
+    """
+    report = build_report(
+        runner.config,
+        runner.results,
+        wall_time,
+        interrupted=interrupted,
+        events=runner.events,
+        cell=runner.layout.describe(),
+    )
+    if runner.planner.user_ik is not None:
+        report["summary"]["ik"] = runner.planner.user_ik.summary()
+    return report
+
+
 def check_outputs(
     report_path: Path | None,
     video: VideoSettings | None,
@@ -227,16 +251,7 @@ def run_job(
     wall = time.perf_counter() - wall0
     for r in recorders:
         runner.cell.hooks.remove(r)
-    report = build_report(
-        config,
-        runner.results,
-        wall,
-        interrupted=interrupted,
-        events=runner.events,
-        cell=runner.layout.describe(),
-    )
-    if runner.planner.user_ik is not None:
-        report["summary"]["ik"] = runner.planner.user_ik.summary()
+    report = runner_report(runner, wall, interrupted)
     if report_path is not None:
         write_json_atomic(report_path, report)
     result = JobResult(

@@ -34,8 +34,8 @@ from kr210_sim.control import Cell
 from kr210_sim.errors import ConfigError
 from kr210_sim.ik_plugin import UserIk
 from kr210_sim.interrupts import exit_code, signal_name
-from kr210_sim.job import check_outputs
-from kr210_sim.report import build_report, cycle_line, write_json_atomic
+from kr210_sim.job import check_outputs, runner_report
+from kr210_sim.report import cycle_line, write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
 from kr210_sim.video import overlay_lines
@@ -289,18 +289,11 @@ def view_job(
         runner.cell.hooks.remove(pacer)
         runner.on_phase = None
         wall = time.perf_counter() - wall0
-        report = build_report(
-            config,
-            runner.results,
+        report = runner_report(
+            runner,
             wall,
-            interrupted=interrupted
-            if isinstance(interrupted, KeyboardInterrupt)
-            else bool(interrupted),
-            events=runner.events,
-            cell=runner.layout.describe(),
+            interrupted if isinstance(interrupted, KeyboardInterrupt) else bool(interrupted),
         )
-        if runner.planner.user_ik is not None:
-            report["summary"]["ik"] = runner.planner.user_ik.summary()
         write_json_atomic(report_path, report)
         result = ViewResult(
             report,
