@@ -530,6 +530,26 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT
     )
 
 
+def _add_video_options(cmd: argparse.ArgumentParser, camera: str, fps: str) -> None:
+    """The video options ``run`` and ``replay`` share (read back by :func:`_video_options`);
+    ``camera`` and ``fps`` name their defaults in the help."""
+    cmd.add_argument(
+        "--camera",
+        action="append",
+        default=None,
+        help=f"camera for the video ({camera}); repeat to tile views side by side",
+    )
+    cmd.add_argument("--width", type=_multiple_of_16, default=None, help="video width [px] (640)")
+    cmd.add_argument("--height", type=_multiple_of_16, default=None, help="video height [px] (480)")
+    cmd.add_argument("--fps", type=_fps, default=None, help=f"video frames per simulated s ({fps})")
+    cmd.add_argument(
+        "--quality",
+        choices=("fast", "medium", "high"),
+        default=None,
+        help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's argument parser."""
     parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
@@ -541,21 +561,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run and score pick-and-place cycles")
     _add_run_options(run)
     run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
-    run.add_argument(
-        "--camera",
-        action="append",
-        default=None,
-        help="camera for the video (overview); repeat to tile views side by side",
-    )
-    run.add_argument("--width", type=_multiple_of_16, default=None, help="video width [px] (640)")
-    run.add_argument("--height", type=_multiple_of_16, default=None, help="video height [px] (480)")
-    run.add_argument("--fps", type=_fps, default=None, help="video frames per simulated s (30)")
-    run.add_argument(
-        "--quality",
-        choices=("fast", "medium", "high"),
-        default=None,
-        help="fast: no shadows; medium: shadows (default); high: big shadow map, 4x MSAA",
-    )
+    _add_video_options(run, "overview", "30")
     run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     run.add_argument(
         "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
@@ -577,20 +583,7 @@ def build_parser() -> argparse.ArgumentParser:
     rp = sub.add_parser("replay", help="render a recording (run --record) to MP4")
     rp.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
     rp.add_argument("--video", type=Path, default=None, help="MP4 path (default: REC with .mp4)")
-    rp.add_argument(
-        "--camera",
-        action="append",
-        default=None,
-        help="camera (default: the run's, else overview); repeat to tile views side by side",
-    )
-    rp.add_argument("--width", type=_multiple_of_16, default=None, help="view width [px] (640)")
-    rp.add_argument("--height", type=_multiple_of_16, default=None, help="height [px] (480)")
-    rp.add_argument(
-        "--fps", type=_fps, default=None, help="frames per simulated s (the recording's rate)"
-    )
-    rp.add_argument(
-        "--quality", choices=("fast", "medium", "high"), default=None, help="as for run (medium)"
-    )
+    _add_video_options(rp, "the run's, else overview", "the recording's rate")
     rp.add_argument(
         "--workers",
         type=_positive_int,
