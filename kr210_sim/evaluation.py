@@ -33,6 +33,7 @@ from kr210_sim.eval_local import EpisodeError, LocalBackend
 from kr210_sim.eval_ray import RayBackend
 from kr210_sim.eval_stream import EpisodeWriter, episodes_path, read_records
 from kr210_sim.eval_summary import EpisodeSummary, wilson_interval
+from kr210_sim.interrupts import Interrupted
 from kr210_sim.progress import ProgressLine, bar
 
 __all__ = [
@@ -52,13 +53,17 @@ log = logging.getLogger(__name__)
 BACKENDS = ("local", "ray")
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM arrived: unwinds exactly like Ctrl-C.
+class Terminated(Interrupted):
+    """SIGTERM arrived: unwinds exactly like Ctrl-C (:class:`kr210_sim.interrupts.Interrupted`
+    with SIGTERM's number, so ``interrupts.exit_code`` gives 143 for it as for ``run``).
 
     A KeyboardInterrupt on purpose: libraries that wait in native code (Ray's ``wait``) turn a
     pending KeyboardInterrupt into their own, and anything else into a SystemError. Which
     signal it was is recorded by the handler, not read from the exception's class.
     """
+
+    def __init__(self) -> None:
+        super().__init__(signal.SIGTERM)
 
 
 @dataclass(frozen=True, slots=True)
