@@ -48,6 +48,14 @@ MARKING_RGBA = (0.95, 0.78, 0.05, 1.0)
 WALL_RGBA = (0.72, 0.73, 0.74, 1.0)
 DADO_RGBA = (0.32, 0.38, 0.42, 1.0)
 
+#: How far the drawn floor reaches past the hall's walls and open sides [m], and its grid [m].
+#: MuJoCo draws an infinite plane as a fine grid out to the far clip: in software (llvmpipe)
+#: that floor alone cost about a third of a 640x480 frame (61 against 41 ms); a finite one
+#: drawn on a 2 m grid looks the same from every fixed camera. It still collides as an infinite
+#: plane (MuJoCo's plane size is for drawing only).
+FLOOR_MARGIN = 24.0
+FLOOR_GRID = 2.0
+
 #: Wire spacing of the bin cage's mesh walls [m] and wire half-thickness [m].
 CAGE_PITCH = 0.125
 CAGE_WIRE = 0.004
@@ -319,8 +327,11 @@ def dress_floor(
 ) -> None:
     """Concrete floor, background, the robot's floor plate, cell markings and hall walls.
 
+    The floor plane (geom ``floor``, centred on the world origin) is drawn
+    :data:`FLOOR_MARGIN` past the farthest hall corner, on a :data:`FLOOR_GRID` grid.
+
     Args:
-        spec: The scene (the floor geom must use material ``floor``).
+        spec: The scene (the floor geom ``floor`` must use material ``floor``).
         visual: The visual default class.
         robot_xy: Where the robot's base stands [m].
         plate_half: Half side of the robot's steel floor plate [m].
@@ -352,6 +363,8 @@ def dress_floor(
         name="floor", texrepeat=[2, 2], texuniform=True, specular=0.15, shininess=0.2
     )
     floor_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor"
+    reach = max(abs(v) for v in hall) + FLOOR_MARGIN
+    spec.geom("floor").size = [reach, reach, FLOOR_GRID]
     world = spec.worldbody
     rx, ry = robot_xy
     _geom(

@@ -73,6 +73,19 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def gl_threads_per_worker(workers: int) -> int:
+    """Rasteriser threads for each of ``workers`` render processes (Mesa's ``LP_NUM_THREADS``).
+
+    Mesa's software rasteriser (llvmpipe) starts a thread per core in every process. With a
+    process per core or more, 0 (each process rasterises on its own thread, no hand-over) costs
+    the least CPU a frame: over a run's frames at 640x480, 44 ms against 52 ms with one
+    rasteriser thread and 55 ms with two. With fewer processes than cores, the cores are
+    shared out between them.
+    """
+    cores = default_workers()
+    return 0 if workers >= cores else cores // workers
+
+
 def chunk_frames(settings: VideoSettings) -> int:
     """Frames per chunk for frames of this size: :data:`MAX_CHUNK`, fewer when that much would
     exceed :data:`WORKER_BUFFER`."""
@@ -134,9 +147,7 @@ def _worker(
     frame goes back on ``results`` as ``b"F" + pixels``; a failure as ``b"E" + message``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-    # Mesa's software rasteriser (llvmpipe) starts a thread per core in every process; with a
-    # process per core, one thread each costs less CPU a frame (measured 54 against 58-64 ms at
-    # 640x480). Read when the GL context is made, below; a value set by the user stands.
+    # Read when the GL context is made, below; a value set by the user stands.
     os.environ.setdefault("LP_NUM_THREADS", str(gl_threads))
     try:
         model = mujoco.MjModel.from_binary_path(model_path)
@@ -244,7 +255,7 @@ class RenderPool:
         model_path = str(Path(self._tmpdir.name) / "model.mjb")
         mujoco.mj_saveModel(model, model_path, None)
         ctx = mp.get_context("spawn")
-        gl_threads = max(1, default_workers() // self.workers)
+        gl_threads = gl_threads_per_worker(self.workers)
         settings = asdict(self.settings)
         settings["path"] = Path(settings["path"])
         # Started with SIGINT blocked: the workers inherit the mask, so Ctrl-C (sent to the whole

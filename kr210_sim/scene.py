@@ -275,6 +275,7 @@ def _add_actuators(spec: mujoco.MjSpec, inertia: npt.NDArray[np.float64]) -> Non
 def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
     """Floor, sky, lights and the fixed cameras (the look: :mod:`kr210_sim.dressing`)."""
     world = spec.worldbody
+    # Infinite for collisions whatever its size; the dressing sets the drawn size.
     floor = world.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )

@@ -116,3 +116,57 @@ def test_a_cylinder_on_the_bin_floor_shows_in_the_overview(model: mujoco.MjModel
     changed = np.abs(with_target - without).sum(axis=2) > 60
     blue = with_target[..., 2] - with_target[..., 0] > 60
     assert (changed & blue).sum() > 20  # 35 px measured; behind opaque walls it would be 0
+
+
+def _camera_ray(model: mujoco.MjModel, data: mujoco.MjData, cam: int, u: float, v: float):
+    """Origin and unit direction of the ray through image point (u, v) in [-1, 1]^2 (u right,
+    v up) of camera ``cam`` (4:3 image)."""
+    fovy = math.radians(model.cam_fovy[cam])
+    ty = math.tan(fovy / 2)
+    local = np.array([u * ty * 4 / 3, v * ty, -1.0])
+    d = data.cam_xmat[cam].reshape(3, 3) @ local
+    return data.cam_xpos[cam].copy(), d / np.linalg.norm(d)
+
+
+def test_the_drawn_floor_is_finite_but_every_fixed_camera_sees_ground_below_the_horizon(
+    model: mujoco.MjModel,
+) -> None:
+    """The floor is drawn as a finite plane (an infinite one is drawn as a fine grid out to the
+    far clip: a third of a software-rendered frame), large enough that no fixed camera sees its
+    edge: every ray looking down hits something drawn."""
+    floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    assert model.geom_size[floor][0] > 0 and model.geom_size[floor][1] > 0
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    drawn = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+    gid = np.zeros(1, dtype=np.int32)
+    down = 0
+    for cam in range(model.ncam):
+        if model.cam_bodyid[cam] != 0:
+            continue
+        for u in np.linspace(-1, 1, 9):
+            for v in np.linspace(-1, 1, 7):
+                p, d = _camera_ray(model, data, cam, float(u), float(v))
+                if d[2] >= -0.02:
+                    continue
+                down += 1
+                dist = mujoco.mj_ray(model, data, p, d, drawn, 1, -1, gid)
+                assert dist > 0, (model.camera(cam).name, u, v)
+    assert down > 200
+
+
+def test_the_floor_collides_as_an_infinite_plane_beyond_its_drawn_size(
+    model: mujoco.MjModel,
+) -> None:
+    """A cylinder put down far beyond the drawn floor rests on it (MuJoCo's plane size is for
+    drawing only)."""
+    floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    far = 3.0 * float(model.geom_size[floor][0])
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    a = int(CellHandles.from_model(model).target_qpos[0])
+    data.qpos[a : a + 7] = (far, far, 0.3, 1, 0, 0, 0)
+    for _ in range(1000):  # 2 s
+        mujoco.mj_step(model, data)
+    assert data.qpos[a + 2] == pytest.approx(0.125, abs=2e-3)

@@ -19,7 +19,14 @@ from kr210_sim.cli import main
 from kr210_sim.errors import RenderError
 from kr210_sim.job import run_job
 from kr210_sim.recording import read_recording
-from kr210_sim.replay import FrameRenderer, RenderPool, chunk_frames, render_recording
+from kr210_sim.replay import (
+    FrameRenderer,
+    RenderPool,
+    chunk_frames,
+    default_workers,
+    gl_threads_per_worker,
+    render_recording,
+)
 from kr210_sim.runner import RunConfig
 from kr210_sim.scene import load_model
 from kr210_sim.video import VideoSettings
@@ -65,11 +72,15 @@ def test_replay_reproduces_the_live_video_frame_for_frame(
 def test_parallel_frames_equal_a_single_process_render(
     live: tuple[Path, Path, Any], tmp_path: Path
 ) -> None:
-    """The pool's frames, read back before encoding, against frames rendered here."""
+    """The pool's frames, read back before encoding, against frames rendered here: with the
+    shadows of the default quality, rasterised on each worker's own thread (LP_NUM_THREADS=0)
+    there and by llvmpipe's thread pool here."""
     _, path, _ = live
     rec = read_recording(path)
     model = load_model()
-    settings = VideoSettings(tmp_path / "unused.mp4", ("gripper", "bin"), **SMALL)
+    settings = VideoSettings(
+        tmp_path / "unused.mp4", ("gripper", "bin"), **{**SMALL, "quality": "medium"}
+    )
     picks = list(range(0, rec.frames, 3))
     reference = FrameRenderer(load_model(), settings, rec.target_geoms)
     expected = [
@@ -100,6 +111,12 @@ def test_parallel_frames_equal_a_single_process_render(
     )
     assert diff == 0
     assert not multiprocessing.active_children()
+
+
+def test_workers_share_the_cores_and_a_worker_per_core_rasterises_on_its_own_thread() -> None:
+    cores = default_workers()
+    assert gl_threads_per_worker(cores) == gl_threads_per_worker(cores + 3) == 0
+    assert gl_threads_per_worker(1) == (cores if cores > 1 else 0)
 
 
 def test_replay_resamples_and_takes_other_cameras(
