@@ -10,7 +10,8 @@ overlay, then ffmpeg) writes them as they come: streaming, with memory bounded b
 ``W x (2 chunks of states + 1 chunk of frames)`` whatever the length of the video.
 
 With one worker nothing is spawned: frames are rendered in this process (the reference the
-parallel frames are tested against: they are identical, pixel for pixel).
+parallel frames are tested against: they are identical, pixel for pixel). A frame whose state is
+within :data:`HOLD` of the last one drawn is not drawn again: its pixels are reused.
 
 The parent feeds frames as they are produced (:meth:`RenderPool.feed`): during a run, from the
 state recorder's step hook, so rendering overlaps the simulation (the simulation waits when the
@@ -52,6 +53,14 @@ log = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.signedinteger]
 
+#: Largest change of any position coordinate from the last frame drawn [m or rad; quaternion
+#: components] below which :meth:`RenderPool.feed` hands on that frame's positions exactly, so
+#: the renderer gives its pixels again without drawing (a still cell: waits, settling, the
+#: closing shot). 1e-5 rad turns a point 3 m away by 0.03 mm, under 1/100 px of a 640x480
+#: overview, and the frames drawn never lag the states fed by more than this. Decided where the
+#: frames are fed in order, so one process and W processes, a run and a replay of its
+#: recording, hold the same frames. Measured on a ten-cycle run at 30 fps: 145 of 1612 frames.
+HOLD = 1e-5
 #: Most frames in a chunk (small: after Ctrl-C during a run, the frames handed out are still
 #: written, at most workers x (AHEAD + 1/2) chunks).
 MAX_CHUNK = 8
@@ -118,9 +127,33 @@ class FrameRenderer:
         self.shadows = shadows
         self.data = mujoco.MjData(model)
         self.renderer = make_renderer(model, settings.width, settings.height)
+        #: The previous call's inputs and frame.
+        self._last: tuple[FloatArray, FloatArray, bool, npt.NDArray[np.uint8]] | None = None
+        #: Frames given again without drawing.
+        self.reused = 0
 
     def render(self, qpos: FloatArray, shapes: FloatArray, tail: bool) -> npt.NDArray[np.uint8]:
-        """One frame (height, width x cameras, 3) of the state ``qpos`` with target ``shapes``."""
+        """One frame (height, width x cameras, 3) of the state ``qpos`` with target ``shapes``.
+
+        The same inputs as the previous call's (a held frame of a recording) give a copy of its
+        pixels without drawing again: drawing is deterministic, so they are the pixels a draw
+        would give.
+        """
+        last = self._last
+        if (
+            last is not None
+            and last[2] == tail
+            and np.array_equal(last[0], qpos)
+            and np.array_equal(last[1], shapes)
+        ):
+            self.reused += 1
+            return last[3].copy()
+        frame = self._draw(qpos, shapes, tail)
+        # A copy of our own: the caller may draw on the frame (the overlay is drawn in place).
+        self._last = (np.array(qpos), np.array(shapes), tail, frame.copy())
+        return frame
+
+    def _draw(self, qpos: FloatArray, shapes: FloatArray, tail: bool) -> npt.NDArray[np.uint8]:
         apply_frame(self.model, self.data, qpos, self.geoms, shapes)
         views = []
         for cam in self.tail_cameras if tail else self.cameras:
@@ -219,6 +252,8 @@ class RenderPool:
         #: The failure that stopped this video during a run (set by the job), or None.
         self.error: Exception | None = None
         self._lines: collections.deque[FrameStatus] = collections.deque()
+        #: The positions last fed that were not held (see :data:`HOLD`).
+        self._held: FloatArray | None = None
         self._pending: list[tuple[FloatArray, FloatArray, bool]] = []
         self._outstanding: collections.deque[tuple[int, int]] = collections.deque()
         self._next_chunk = 0
@@ -359,6 +394,11 @@ class RenderPool:
     def feed(self, qpos: FloatArray, shapes: FloatArray, status: FrameStatus, tail: bool) -> None:
         """Add the next frame: the state ``qpos``, target ``shapes``, the overlay's ``status``
         and whether it belongs to the closing shot."""
+        held = self._held
+        if held is not None and float(np.max(np.abs(qpos - held))) <= HOLD:
+            qpos = held  # a still cell: drawn once (see HOLD)
+        else:
+            self._held = qpos = np.array(qpos, dtype=np.float64)
         with deferred():  # counted whole, or not at all
             self.fed += 1
             self._lines.append(status)

@@ -20,6 +20,7 @@ from kr210_sim.errors import RenderError
 from kr210_sim.job import run_job
 from kr210_sim.recording import read_recording
 from kr210_sim.replay import (
+    HOLD,
     FrameRenderer,
     RenderPool,
     chunk_frames,
@@ -82,12 +83,21 @@ def test_parallel_frames_equal_a_single_process_render(
         tmp_path / "unused.mp4", ("gripper", "bin"), **{**SMALL, "quality": "medium"}
     )
     picks = list(range(0, rec.frames, 3))
-    reference = FrameRenderer(load_model(), settings, rec.target_geoms)
-    expected = [
-        reference.render(rec.arrays["qpos"][i], rec.shapes_at(i), bool(rec.arrays["tail"][i]))
-        for i in picks
-    ]
-    reference.close()
+    expected = _pool_frames(model, settings, rec, picks, workers=1)
+    got = _pool_frames(model, settings, rec, picks, workers=2)
+    assert len(got) == len(expected) > 2 * 8  # more than one chunk per worker
+    diff = max(
+        int(np.abs(g.astype(np.int16) - e).max()) for g, e in zip(got, expected, strict=True)
+    )
+    assert diff == 0
+    assert not multiprocessing.active_children()
+
+
+def _pool_frames(
+    model: Any, settings: VideoSettings, rec: Any, picks: list[int], workers: int
+) -> list[npt.NDArray[np.uint8]]:
+    """The frames a pool of ``workers`` makes of the recording's frames ``picks``, read back
+    before encoding."""
     got: list[npt.NDArray[np.uint8]] = []
 
     class Capture(RenderPool):  # keep what the workers send instead of encoding it
@@ -96,7 +106,7 @@ def test_parallel_frames_equal_a_single_process_render(
             got.append(frame.copy())
             self.written += 1
 
-    pool = Capture(model, settings, rec.target_geoms, workers=2)
+    pool = Capture(model, settings, rec.target_geoms, workers=workers)
     assert pool.chunk == chunk_frames(settings) == 8
     try:
         for i in picks:
@@ -105,12 +115,54 @@ def test_parallel_frames_equal_a_single_process_render(
     except BaseException:
         pool.abort(keep=False)
         raise
-    assert len(got) == len(expected) > 2 * pool.chunk  # more than one chunk per worker
-    diff = max(
-        int(np.abs(g.astype(np.int16) - e).max()) for g, e in zip(got, expected, strict=True)
+    return got
+
+
+def test_a_still_frame_is_drawn_once_and_its_pixels_are_a_fresh_draws(
+    live: tuple[Path, Path, Any], tmp_path: Path
+) -> None:
+    """Positions within HOLD of the last frame drawn give that frame's pixels again; beyond
+    HOLD, or with other target shapes, a frame is drawn."""
+    _, path, _ = live
+    rec = read_recording(path)
+    settings = VideoSettings(
+        tmp_path / "still.mp4", ("overview",), **{**SMALL, "quality": "medium"}
     )
-    assert diff == 0
-    assert not multiprocessing.active_children()
+    i = rec.frames // 2
+    q, shapes, status = rec.arrays["qpos"][i], rec.shapes_at(i), rec.status(i)
+    nudged = q.copy()
+    nudged[0] += 0.5 * HOLD
+    moved = q.copy()
+    moved[0] += 0.01  # 0.01 rad of joint 1: the arm moves by pixels
+    other = shapes.copy()
+    other[0, 0] *= 1.5  # a wider cylinder
+    fresh = FrameRenderer(load_model(), settings, rec.target_geoms)
+    try:
+        want = [fresh._draw(x, s, False) for x, s in ((q, shapes), (moved, shapes), (q, other))]
+    finally:
+        fresh.close()
+    got: list[npt.NDArray[np.uint8]] = []
+
+    class Capture(RenderPool):
+        def _write(self, frame: npt.NDArray[np.uint8]) -> None:
+            self._lines.popleft()
+            got.append(frame.copy())
+            frame[:] = 0  # the encoder draws its overlay in place: the held pixels stay clean
+            self.written += 1
+
+    pool = Capture(load_model(), settings, rec.target_geoms, workers=1)
+    try:
+        for x, s in ((q, shapes), (nudged, shapes), (q, shapes), (moved, shapes), (q, other)):
+            pool.feed(x, s, status, False)
+        assert pool._local is not None and pool._local.reused == 2  # drawn 3 times for 5
+        pool.finish()
+    except BaseException:
+        pool.abort(keep=False)
+        raise
+    assert [np.array_equal(g, w) for g, w in zip(got, [want[0]] * 3 + want[1:], strict=True)] == [
+        True
+    ] * 5
+    assert not np.array_equal(want[0], want[1]) and not np.array_equal(want[0], want[2])
 
 
 def test_workers_share_the_cores_and_a_worker_per_core_rasterises_on_its_own_thread() -> None:
