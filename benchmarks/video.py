@@ -25,8 +25,11 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+import numpy.typing as npt
+
 import kr210_sim  # noqa: F401  (chooses MUJOCO_GL=egl before mujoco is imported)
-from kr210_sim.recording import Recording, StateRecorder
+from kr210_sim.recording import Recording, StateRecorder, read_recording
 from kr210_sim.replay import FrameRenderer, default_workers, render_recording
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
@@ -44,35 +47,39 @@ def one_cycle() -> Recording:
     return rec.recording({"model_sha256": "", "scene": None})
 
 
-def render_only(rec: Recording, settings: VideoSettings) -> float:
-    """Frames per second of rendering alone, in this process."""
+def render_only(
+    rec: Recording, settings: VideoSettings
+) -> tuple[float, list[npt.NDArray[np.uint8]]]:
+    """Frames per second of rendering alone, in this process, and the frames."""
     r = FrameRenderer(load_model(), settings, rec.target_geoms)
     r.render(rec.arrays["qpos"][0], rec.shapes_at(0), False)  # warm up
+    frames = []
     t = time.perf_counter()
     for i in range(rec.frames):
-        r.render(rec.arrays["qpos"][i], rec.shapes_at(i), False)
+        frames.append(r._draw(rec.arrays["qpos"][i], rec.shapes_at(i), False))
     dt = time.perf_counter() - t
     r.close()
-    return rec.frames / dt
+    return rec.frames / dt, frames
 
 
-def encoder_only(rec: Recording, settings: VideoSettings) -> float:
-    """Frames per second of the encoder alone (overlay + libx264), fed a rendered frame."""
-    r = FrameRenderer(load_model(), settings, rec.target_geoms)
-    frame = r.render(rec.arrays["qpos"][rec.frames // 2], rec.shapes_at(0), False)
-    r.close()
+def encoder_only(
+    rec: Recording, settings: VideoSettings, frames: list[npt.NDArray[np.uint8]]
+) -> tuple[float, float]:
+    """Frames per second of the encoder alone (overlay + libx264) fed the rendered ``frames``,
+    and the CPU time a frame costs it (this process and ffmpeg) [s]."""
     writer = _Writer(settings)
-    lines = rec.status(0).lines()
-    t = time.perf_counter()
-    for _ in range(rec.frames):
-        writer.put(frame.copy(), lines)
+    t, c = time.perf_counter(), cpu()
+    for i, frame in enumerate(frames):
+        writer.put(frame.copy(), rec.status(i).lines())
     writer.close()
-    return rec.frames / (time.perf_counter() - t)
+    return len(frames) / (time.perf_counter() - t), (cpu() - c) / len(frames)
 
 
-def _render_alone(n: int) -> float:
-    """Render ``n`` frames of the home pose in a fresh process; the seconds it took (after a
-    warm-up frame)."""
+def _render_alone(n: int, lp_threads: str | None = None) -> float:
+    """Render ``n`` frames of the home pose in a fresh process (llvmpipe with ``lp_threads``
+    rasteriser threads, its default when None); the seconds it took (after a warm-up frame)."""
+    if lp_threads is not None:
+        os.environ["LP_NUM_THREADS"] = lp_threads  # read when the GL context is made
     import mujoco
     import numpy as np
 
@@ -88,15 +95,38 @@ def _render_alone(n: int) -> float:
     return time.perf_counter() - t
 
 
-def free_cores(workers: int, n: int = 30) -> float:
+def free_cores(workers: int, n: int = 60, lp_threads: str | None = None) -> float:
     """How many times one process's render rate ``workers`` independent render processes reach
-    together now (no encoder, no pool): what the machine gives, the most a pool can get."""
+    together now (no encoder, no pool): what the machine gives, the most a pool can get. With
+    ``lp_threads="0"`` each process rasterises on its own thread (one core each)."""
     import multiprocessing as mp
 
     with mp.get_context("spawn").Pool(workers) as p:
-        one = p.map(_render_alone, [n])[0]
-        many = p.map(_render_alone, [n] * workers)
+        p.starmap(_render_alone, [(5, lp_threads)] * workers)  # start every process first
+        one = min(p.starmap(_render_alone, [(n, lp_threads)])[0] for _ in range(2))
+        many = p.starmap(_render_alone, [(n, lp_threads)] * workers)
     return workers * n / max(many) / (n / one)
+
+
+def render_cpu(rec: Recording, settings: VideoSettings) -> float:
+    """CPU time of one frame rendered on one thread (llvmpipe's own, LP_NUM_THREADS=0), in a
+    fresh process [s]."""
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(1) as p:
+        return float(p.apply(_frame_cpu, (rec, settings)))
+
+
+def _frame_cpu(rec: Recording, settings: VideoSettings) -> float:
+    os.environ["LP_NUM_THREADS"] = "0"
+    r = FrameRenderer(load_model(), settings, rec.target_geoms)
+    r.render(rec.arrays["qpos"][0], rec.shapes_at(0), False)  # warm up
+    c = time.process_time()
+    for i in range(rec.frames):
+        r._draw(rec.arrays["qpos"][i], rec.shapes_at(i), False)
+    per = (time.process_time() - c) / rec.frames
+    r.close()
+    return per
 
 
 def cpu() -> float:
@@ -150,12 +180,18 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         settings = VideoSettings(folder / "bench.mp4", ("overview",), W, H, quality="medium")
-        r1 = render_only(rec, settings)
-        enc = encoder_only(rec, settings)
+        r1, frames_drawn = render_only(rec, settings)
+        enc, enc_cpu = encoder_only(rec, settings, frames_drawn)
+        del frames_drawn
+        frame_cpu = render_cpu(rec, settings)
         p1, s1, f1, c1 = pool(rec, settings, 1)
         pw, sw, fw, cw = pool(rec, settings, args.workers)
-        print(f"  render only, this process        {r1:6.1f} frames/s")
-        print(f"  encoder alone (overlay + x264)   {enc:6.1f} frames/s")
+        print(f"  render only, this process        {r1:6.1f} frames/s (llvmpipe's own threads)")
+        print(f"  render CPU a frame, one thread   {frame_cpu * 1e3:6.1f} ms")
+        print(
+            f"  encoder alone (overlay + x264)   {enc:6.1f} frames/s, {enc_cpu * 1e3:.1f} ms CPU "
+            "a frame"
+        )
         print("  render + encode      all frames   after the first   start-up   CPU a frame")
         print(
             f"    1 process          {p1:6.1f}/s     {f1:6.1f}/s       {s1:5.1f} s   "
@@ -171,21 +207,40 @@ def main() -> None:
         print(f"  ceiling set by the encoder: {enc / r1:.1f} render processes' worth")
         print(
             f"  {args.workers} independent render processes reach {free_cores(args.workers):.2f}x "
-            "one process's rate on this machine now (the most a pool can get)"
+            "one process's rate on this machine now (the most a pool can get: one process "
+            "already rasterises on every core)"
+        )
+        print(
+            f"  ... {free_cores(args.workers, lp_threads='0'):.2f}x with one rasteriser thread "
+            "each (LP_NUM_THREADS=0): how rendering scales with cores"
+        )
+        budget = frame_cpu + enc_cpu
+        cores = os.cpu_count() or 1
+        print(
+            f"  CPU a frame, render + encode: {budget * 1e3:.1f} ms -> at best "
+            f"{cores / budget:.1f} frames/s on {cores} cores, {cores / budget / f1:.2f}x the "
+            "single process: the most any split of the work can reach here"
         )
         if args.no_runs:
             return
         run = ["run", "--cycles", "10", "--report", "r.json", "--video", "v.mp4"]
         t_default = wall(run, folder)
         t_one = wall([*run, "--render-workers", "1"], folder)
+        t_fast = wall([*run, "--quality", "fast"], folder)
         t_sim = wall(["run", "--cycles", "10", "--report", "r.json", "--record", "r.npz"], folder)
         t_replay = wall(["replay", "r.npz", "--video", "v2.mp4"], folder)
-        print("run --cycles 10 --video v.mp4 (640x480, medium):")
+        frames = len(read_recording(folder / "r.npz").arrays["time"])
+        print(f"run --cycles 10 --video v.mp4 (640x480, medium, {frames} frames):")
         print(f"  one render process per core ({default_workers()})  {t_default:6.1f} s")
         print(f"  --render-workers 1                {t_one:6.1f} s")
+        print(f"  --quality fast (no shadows)       {t_fast:6.1f} s")
         print(
             f"  simulate, then render: run --record {t_sim:.1f} s + replay {t_replay:.1f} s "
             f"= {t_sim + t_replay:.1f} s"
+        )
+        print(
+            f"  the CPU budget above puts a {frames}-frame video at >= "
+            f"{frames * budget / cores:.1f} s on {cores} cores (rendering and encoding only)"
         )
     print(f"load average at the end: {os.getloadavg()[0]:.1f}")
 
