@@ -379,8 +379,6 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.record_failures is not None:
         from kr210_sim.outputs import check_folder
 
-        if args.ik is not None:
-            raise ConfigError("--record-failures cannot replay episodes planned with --ik yet")
         check_folder(args.record_failures)
     model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
     outcome = evaluate(config, report=args.report, resume=args.resume)
@@ -415,6 +413,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             config.randomize,
             args.record_failures,
             config.cell or config.scene,
+            ik=args.ik,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:

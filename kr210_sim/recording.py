@@ -459,12 +459,13 @@ def record_episode(
     scene: Path | None = None,
     rate: float = DEFAULT_RATE,
     model: mujoco.MjModel | None = None,
+    ik: Any = None,
 ) -> EpisodeRecording:
     """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
 
-    Episodes are pure functions of their seed (see :mod:`kr210_sim.evaluate`): a fresh cell and
-    one cycle of ``RunConfig(cycles=1, seed=seed, randomize=randomize)``, so the re-run is the
-    episode. The closing bin shot is recorded too.
+    Episodes are pure functions of their seed and IK (see :mod:`kr210_sim.evaluation`): a fresh
+    cell and one cycle of ``RunConfig(cycles=1, seed=seed, randomize=randomize)``, so the re-run
+    is the episode. The closing bin shot is recorded too.
 
     Args:
         seed: The episode's seed.
@@ -473,6 +474,8 @@ def record_episode(
         scene: MJCF scene of the evaluation (default: the committed scene).
         rate: Frames per simulated second [Hz].
         model: A pristine copy of the scene's model, to skip loading it again (it is copied).
+        ik: The user's IK the evaluation planned with (:func:`kr210_sim.ik_plugin.load_ik`),
+            or None for ours.
 
     Returns:
         Where the recording went and the episode's reason (``success`` if it did not fail).
@@ -491,7 +494,7 @@ def record_episode(
     pristine = model if model is not None else model_at(scene)
     identity = model_identity(pristine)
     config = RunConfig(cycles=1, seed=seed, randomize=randomize)
-    runner = Runner(config, model=copy.copy(pristine))
+    runner = Runner(config, model=copy.copy(pristine), ik=ik)
     recorder = StateRecorder(
         runner.model, runner.cell.handles.target_geoms, runner.status, rate=rate
     )
@@ -539,6 +542,7 @@ def record_failures(
     out_dir: Path | str,
     scene: Path | None = None,
     rate: float = DEFAULT_RATE,
+    ik: str | None = None,
 ) -> list[EpisodeRecording]:
     """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
 
@@ -548,6 +552,7 @@ def record_failures(
         out_dir: Folder for the recordings, named ``<seed>_<reason>.npz``.
         scene: MJCF scene of the evaluation (default: the committed scene).
         rate: Frames per simulated second [Hz].
+        ik: SPEC of the user's IK the evaluation planned with (``--ik``), or None for ours.
 
     Returns:
         One entry per failed episode, in the records' order.
@@ -560,7 +565,12 @@ def record_failures(
         return []
     check_folder(out_dir)
     pristine = model_at(scene)
+    user_ik = None
+    if ik is not None:
+        from kr210_sim.ik_plugin import load_ik
+
+        user_ik = load_ik(ik)
     return [
-        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, model=pristine)
+        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, pristine, user_ik)
         for r in failed
     ]

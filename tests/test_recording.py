@@ -210,3 +210,24 @@ def test_evaluate_records_its_failed_episodes(
     failed = json.loads((tmp_path / "e.json").read_text())["failed_episodes"][0]
     assert made.name == f"{failed['seed']}_{failed['reason']}.npz"
     assert read_recording(made).meta["summary"]["successes"] == 0
+
+
+def test_evaluate_records_the_failed_episodes_of_a_user_ik(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`evaluate --ik SPEC --record-failures DIR`: the re-run plans with the same IK, so the
+    recording is of the very failure (here an IK that answers nothing: ik_failed)."""
+    from kr210_sim.cli import main
+
+    ik = tmp_path / "my_ik.py"
+    ik.write_text("def solve(T, q_ref):\n    return None\n")
+    out = tmp_path / "fails"
+    argv = ["evaluate", "--episodes", "1", "--seed", "3", "--ik", f"{ik}:solve"]
+    argv += ["--report", str(tmp_path / "e.json"), "--record-failures", str(out)]
+    assert main(argv) == 1
+    assert "failures recorded: 1" in capsys.readouterr().out
+    (made,) = out.iterdir()
+    failed = json.loads((tmp_path / "e.json").read_text())["failed_episodes"][0]
+    assert failed["reason"] == "ik_failed"
+    assert made.name == f"{failed['seed']}_ik_failed.npz"
+    assert read_recording(made).meta["summary"]["successes"] == 0
