@@ -247,3 +247,20 @@ def test_imageio_ffmpeg_exe_errors_name_the_variable(
         ffmpeg_exe()
     text = str(err.value)
     assert message in text and "IMAGEIO_FFMPEG_EXE" in text and "\n" not in text
+
+
+def test_the_overlay_shades_its_box_writes_white_text_and_keeps_few_masks() -> None:
+    from kr210_sim.video import _Overlay
+
+    overlay = _Overlay(480)
+    grey = np.full((480, 640, 3), 120, dtype=np.uint8)
+    lines = ["cycle 3/10   slot 5", "phase: carry", "score: 2/2", "t =  12.34 s"]
+    a = overlay.draw(grey.copy(), lines)
+    box = a[: 4 * int(overlay.size * 1.3), :100]
+    # the shade: 120 * (255 - 150) / 255 = 49, text up to white, nothing outside the box
+    assert int(np.median(box)) == 49 and box.max() >= 250
+    assert (a[300:, 300:] == 120).all()
+    assert np.array_equal(a, overlay.draw(grey.copy(), lines))  # the kept masks draw the same
+    for k in range(3 * overlay.CACHE):
+        overlay.draw(grey.copy(), [f"t = {k:6.2f} s"])
+    assert len(overlay._masks) <= overlay.CACHE
