@@ -207,8 +207,8 @@ def main() -> None:
         print(f"  ceiling set by the encoder: {enc / r1:.1f} render processes' worth")
         print(
             f"  {args.workers} independent render processes reach {free_cores(args.workers):.2f}x "
-            "one process's rate on this machine now (the most a pool can get: one process "
-            "already rasterises on every core)"
+            "one process's rate (render only, the home pose; llvmpipe threads vertex work "
+            "poorly, so this moves with the scene and the machine's neighbours)"
         )
         print(
             f"  ... {free_cores(args.workers, lp_threads='0'):.2f}x with one rasteriser thread "
