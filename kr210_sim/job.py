@@ -25,6 +25,7 @@ from kr210_sim.interrupts import signal_name
 from kr210_sim.outputs import check_distinct, check_folder, check_writable, is_stream
 from kr210_sim.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.plots import PLOT_NAMES
+from kr210_sim.progress import VideoProgress
 from kr210_sim.recording import (
     DEFAULT_RATE,
     DEFAULT_TAIL,
@@ -37,7 +38,7 @@ from kr210_sim.recording import (
 from kr210_sim.replay import RenderPool, default_workers
 from kr210_sim.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.runner import CycleResult, RunConfig, Runner
-from kr210_sim.video import Progress, VideoSettings, _one_line
+from kr210_sim.video import VideoSettings, _one_line
 
 import mujoco  # isort: skip
 
@@ -213,10 +214,10 @@ def run_job(
         states = StateRecorder(runner.model, geoms, runner.status, rate=record_rate)
         recorders.append(states)
     pool: RenderPool | None = None
-    progress: Progress | None = None
+    progress: VideoProgress | None = None
     video_error: str | None = None
     if video is not None:
-        progress = Progress(config.cycles, progress_stream, tail=video.tail)
+        progress = VideoProgress(config.cycles, progress_stream, tail=video.tail)
         workers = render_workers if render_workers is not None else default_workers()
         try:  # a bad camera or size raises ConfigError here, before anything has run
             pool = RenderPool(runner.model, video, geoms, workers, progress)

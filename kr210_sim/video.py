@@ -18,14 +18,12 @@ import signal
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, RenderError
 from kr210_sim.outputs import commit, discard, temp_beside
-from kr210_sim.progress import ProgressLine, bar
 
 #: Quality presets: (shadows, shadow map size [px], MSAA samples).
 QUALITY: dict[str, tuple[bool, int, int]] = {
@@ -34,9 +32,6 @@ QUALITY: dict[str, tuple[bool, int, int]] = {
     "high": (True, 4096, 4),
 }
 
-
-#: Simulated length of a cycle assumed by the progress estimate before one has ended [s].
-PRIOR_CYCLE_TIME = 5.0
 
 #: H.264 settings per quality: (CRF, x264 preset). Faster presets leave more CPU to rendering.
 ENCODING: dict[str, tuple[int, str]] = {
@@ -333,53 +328,3 @@ def _one_line(exc: BaseException) -> str:
     """An exception as one line: its type when it has no message."""
     text = " ".join(str(exc).split())
     return text or type(exc).__name__
-
-
-class Progress:
-    """A one-line progress bar on stderr: cycles, frames, simulated time and the estimate.
-
-    The estimate scales the wall time so far by the simulated time still to come: the simulated
-    length of a cycle measured so far (a prior of :data:`PRIOR_CYCLE_TIME` before the first one
-    ends) times the cycles left, plus the closing shot.
-
-    Args:
-        total_cycles: Cycles in the run.
-        stream: Where to write (stderr).
-        tail: Seconds of closing shot after the last cycle [s].
-    """
-
-    def __init__(self, total_cycles: int, stream: Any = None, tail: float = 0.0) -> None:
-        self.total = total_cycles
-        self.tail = tail
-        self.line = ProgressLine(stream)
-        self.cycles_done = 0
-        self._sim_at_cycle = 0.0
-
-    def cycle_done(self, n: int, sim_time: float) -> None:
-        """Record that cycle ``n`` ended at simulated time ``sim_time`` [s]."""
-        self.cycles_done = n
-        self._sim_at_cycle = sim_time
-
-    def eta(self, sim_time: float) -> float | None:
-        """Estimated wall time to finish [s], or None in the first simulated second (too early
-        to tell the wall time a simulated second costs)."""
-        if sim_time < 1.0:
-            return None
-        per_cycle = self._sim_at_cycle / self.cycles_done if self.cycles_done else PRIOR_CYCLE_TIME
-        total_sim = self.total * per_cycle + self.tail
-        return max(0.0, self.line.elapsed * (total_sim - sim_time) / sim_time)
-
-    def __call__(self, frames: int, sim_time: float) -> None:
-        if not self.line.due():
-            return
-        estimate = self.eta(sim_time)
-        eta = "   ?" if estimate is None else f"{estimate:4.0f} s"
-        self.line.show(
-            f"video {bar(self.cycles_done / max(self.total, 1))} cycle {self.cycles_done}/"
-            f"{self.total}  {frames} frames  sim {sim_time:5.1f} s  "
-            f"elapsed {self.line.elapsed:4.0f} s  eta {eta}"
-        )
-
-    def finish(self, frames: int) -> None:
-        """Close the bar with the frame count and the wall time."""
-        self.line.end(f"video: {frames} frames in {self.line.elapsed:.1f} s")
