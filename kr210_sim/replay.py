@@ -135,9 +135,9 @@ class FrameRenderer:
     def render(self, qpos: FloatArray, shapes: FloatArray, tail: bool) -> npt.NDArray[np.uint8]:
         """One frame (height, width x cameras, 3) of the state ``qpos`` with target ``shapes``.
 
-        The same inputs as the previous call's (a held frame of a recording) give a copy of its
-        pixels without drawing again: drawing is deterministic, so they are the pixels a draw
-        would give.
+        The same inputs as the previous call's (a frame :meth:`RenderPool.feed` held, see
+        :data:`HOLD`) give a copy of its pixels without drawing again: drawing is deterministic,
+        so they are the pixels a draw would give.
         """
         last = self._last
         if (
