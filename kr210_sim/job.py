@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -92,6 +93,19 @@ def runner_report(
     if runner.planner.user_ik is not None:
         report["summary"]["ik"] = runner.planner.user_ik.summary()
     return report
+
+
+def run_cycles(
+    runner: Runner, cycles: int, out: TextIO, after: Callable[[int], None] | None = None
+) -> None:
+    """Run cycles 1 to ``cycles`` (each on the slot the run's generator picks), writing each
+    one's line to ``out`` as it ends; ``after(i)`` is called after cycle ``i``'s line."""
+    for i in range(1, cycles + 1):
+        cycle = runner.run_cycle(i, runner.slot_for_cycle())
+        out.write(cycle_line(cycle, cycles) + "\n")
+        out.flush()
+        if after is not None:
+            after(i)
 
 
 def check_outputs(
@@ -233,12 +247,12 @@ def run_job(
     wall0 = time.perf_counter()
     interrupted: KeyboardInterrupt | None = None
     try:
-        for i in range(1, config.cycles + 1):
-            cycle = runner.run_cycle(i, runner.slot_for_cycle())
-            out.write(cycle_line(cycle, config.cycles) + "\n")
-            out.flush()
-            if progress is not None:
-                progress.cycle_done(i, runner.cell.time)
+        run_cycles(
+            runner,
+            config.cycles,
+            out,
+            None if progress is None else lambda i: progress.cycle_done(i, runner.cell.time),
+        )
         if recorders:  # the closing shot: the bin with the cylinders in it
             for r in recorders:
                 r.tail = True

@@ -34,8 +34,8 @@ from kr210_sim.control import Cell
 from kr210_sim.errors import ConfigError
 from kr210_sim.ik_plugin import UserIk
 from kr210_sim.interrupts import exit_code, signal_name
-from kr210_sim.job import check_outputs, runner_report
-from kr210_sim.report import cycle_line, write_json_atomic
+from kr210_sim.job import check_outputs, run_cycles, runner_report
+from kr210_sim.report import write_json_atomic
 from kr210_sim.runner import RunConfig, Runner
 from kr210_sim.scene import load_model
 from kr210_sim.video import overlay_lines
@@ -273,10 +273,7 @@ def view_job(
         wall0 = time.perf_counter()
         interrupted: BaseException | None = None
         try:
-            for i in range(1, config.cycles + 1):
-                cycle = runner.run_cycle(i, runner.slot_for_cycle())
-                out.write(cycle_line(cycle, config.cycles) + "\n")
-                out.flush()
+            run_cycles(runner, config.cycles, out)
         except (KeyboardInterrupt, ViewerClosed) as exc:
             interrupted = exc
             why = (
