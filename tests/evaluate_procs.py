@@ -2,9 +2,32 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import subprocess
+import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
+
+#: The command line of ``python -m kr210_sim evaluate``.
+EVALUATE = [sys.executable, "-m", "kr210_sim", "evaluate"]
+
+
+@contextlib.contextmanager
+def evaluate_process(argv: list[str], **popen: Any) -> Iterator[subprocess.Popen[str]]:
+    """``python -m kr210_sim evaluate ARGV`` in its own process, its output piped as text
+    (``popen``: more ``subprocess.Popen`` arguments); killed on the way out if still running."""
+    proc = subprocess.Popen(
+        [*EVALUATE, *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen
+    )
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 def descendants(pid: int) -> set[int]:

@@ -11,8 +11,6 @@ import json
 import os
 import secrets
 import signal
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -20,7 +18,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from evaluate_procs import cmdline, descendants, left_behind, record_count, wait_for_records
+from evaluate_procs import (
+    cmdline,
+    descendants,
+    evaluate_process,
+    left_behind,
+    record_count,
+    wait_for_records,
+)
 
 from kr210_sim.evaluation import EvalConfig, evaluate
 from kr210_sim.report import strip_wall
@@ -127,25 +132,14 @@ def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
     cluster: Any, tmp_path: Path
 ) -> None:
     report = tmp_path / "e.json"
-    argv = ["evaluate", "--backend", "ray", "--address", cluster.address, "--episodes", "200"]
+    argv = ["--backend", "ray", "--address", cluster.address, "--episodes", "200"]
     # the driver runs in its own process: it reads Ray's loopback setting from the environment
     env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "kr210_sim", *argv, "--report", str(report)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-    try:
+    with evaluate_process([*argv, "--report", str(report)], env=env) as proc:
         wait_for_records(tmp_path / "e.episodes.jsonl", 2)
         assert _running_tasks()
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=90)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 143, err
     assert json.loads(report.read_text())["interrupted"] is True
     deadline = time.monotonic() + 20
@@ -156,23 +150,12 @@ def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
 
 def test_sigterm_on_a_driver_that_started_ray_leaves_nothing_behind(tmp_path: Path) -> None:
     report = tmp_path / "e.json"
-    argv = ["evaluate", "--backend", "ray", "--workers", "2", "--episodes", "200"]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "kr210_sim", *argv, "--report", str(report)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    try:
+    argv = ["--backend", "ray", "--workers", "2", "--episodes", "200"]
+    with evaluate_process([*argv, "--report", str(report)], start_new_session=True) as proc:
         wait_for_records(tmp_path / "e.episodes.jsonl", 2)
         started = descendants(proc.pid)
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=90)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 143, err
     assert "Traceback" not in err
     data = json.loads(report.read_text())

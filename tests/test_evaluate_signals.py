@@ -7,11 +7,18 @@ import json
 import os
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from evaluate_procs import cmdline, descendants, left_behind, record_count, wait_for_records
+from evaluate_procs import (
+    EVALUATE,
+    cmdline,
+    descendants,
+    evaluate_process,
+    left_behind,
+    record_count,
+    wait_for_records,
+)
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
 
@@ -30,15 +37,8 @@ def test_a_signal_writes_the_report_and_stops_every_worker(
     tmp_path: Path, sig: signal.Signals, to_group: bool, code: int
 ) -> None:
     report = tmp_path / "e.json"
-    argv = ["evaluate", "--episodes", "200", "--workers", "2", "--report", str(report)]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "kr210_sim", *argv],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    try:
+    argv = ["--episodes", "200", "--workers", "2", "--report", str(report)]
+    with evaluate_process(argv, start_new_session=True) as proc:
         wait_for_records(tmp_path / "e.episodes.jsonl", 3)
         workers = descendants(proc.pid)
         assert len(workers) >= 2
@@ -47,10 +47,6 @@ def test_a_signal_writes_the_report_and_stops_every_worker(
         else:
             proc.send_signal(sig)
         out, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == code, err
     for bad in ("Traceback", "BrokenPipe", "leaked", "resource_tracker"):
         assert bad not in err
@@ -66,23 +62,20 @@ def test_a_signal_writes_the_report_and_stops_every_worker(
 @pytest.mark.slow
 def test_a_local_worker_killed_is_a_one_line_error_and_resume_finishes(tmp_path: Path) -> None:
     report = tmp_path / "e.json"
-    argv = [sys.executable, "-m", "kr210_sim", "evaluate", "--episodes", "8", "--workers", "2"]
+    argv = ["--episodes", "8", "--workers", "2"]
     argv += ["--seed", "7", "--min-success", "0", "--report", str(report)]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with evaluate_process(argv) as proc:
         wait_for_records(tmp_path / "e.episodes.jsonl", 1)
         workers = [p for p in descendants(proc.pid) if "spawn_main" in cmdline(p)]
         os.kill(workers[0], signal.SIGKILL)
         _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 2, err
     assert err.count("\n") - err.count("evaluate [") == 1 and "Traceback" not in err
     assert "a worker process died running episode" in err and "--resume" in err
     kept = record_count(tmp_path / "e.episodes.jsonl")
-    resumed = subprocess.run([*argv, "--resume"], capture_output=True, text=True, timeout=120)
+    resumed = subprocess.run(
+        [*EVALUATE, *argv, "--resume"], capture_output=True, text=True, timeout=120
+    )
     assert resumed.returncode == 0, resumed.stderr
     data = json.loads(report.read_text())
     assert data["execution"]["resumed_episodes"] == kept >= 1
