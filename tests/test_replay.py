@@ -98,24 +98,43 @@ def _pool_frames(
 ) -> list[npt.NDArray[np.uint8]]:
     """The frames a pool of ``workers`` makes of the recording's frames ``picks``, read back
     before encoding."""
+    feeds = [
+        (rec.arrays["qpos"][i], rec.shapes_at(i), rec.status(i), rec.arrays["tail"][i])
+        for i in picks
+    ]
+    return _captured(model, settings, rec.target_geoms, workers, feeds)[0]
+
+
+def _captured(
+    model: Any,
+    settings: VideoSettings,
+    geoms: Any,
+    workers: int,
+    feeds: list[tuple[Any, Any, Any, Any]],
+) -> tuple[list[npt.NDArray[np.uint8]], int | None]:
+    """What a pool of ``workers`` gives for ``feeds`` (``feed``'s arguments), read back before
+    encoding, and how many frames its in-process renderer reused (None with workers). Each frame
+    is overwritten once read, as the encoder's overlay does: a renderer keeping it would show."""
     got: list[npt.NDArray[np.uint8]] = []
 
     class Capture(RenderPool):  # keep what the workers send instead of encoding it
         def _write(self, frame: npt.NDArray[np.uint8]) -> None:
             self._lines.popleft()
             got.append(frame.copy())
+            frame[:] = 0
             self.written += 1
 
-    pool = Capture(model, settings, rec.target_geoms, workers=workers)
+    pool = Capture(model, settings, geoms, workers=workers)
     assert pool.chunk == chunk_frames(settings) == 8
     try:
-        for i in picks:
-            pool.feed(rec.arrays["qpos"][i], rec.shapes_at(i), rec.status(i), rec.arrays["tail"][i])
-        assert pool.finish() == len(picks)
+        for feed in feeds:
+            pool.feed(*feed)
+        reused = pool._local.reused if pool._local is not None else None
+        assert pool.finish() == len(feeds)
     except BaseException:
         pool.abort(keep=False)
         raise
-    return got
+    return got, reused
 
 
 def test_a_still_frame_is_drawn_once_and_its_pixels_are_a_fresh_draws(
@@ -141,24 +160,10 @@ def test_a_still_frame_is_drawn_once_and_its_pixels_are_a_fresh_draws(
         want = [fresh._draw(x, s, False) for x, s in ((q, shapes), (moved, shapes), (q, other))]
     finally:
         fresh.close()
-    got: list[npt.NDArray[np.uint8]] = []
-
-    class Capture(RenderPool):
-        def _write(self, frame: npt.NDArray[np.uint8]) -> None:
-            self._lines.popleft()
-            got.append(frame.copy())
-            frame[:] = 0  # the encoder draws its overlay in place: the held pixels stay clean
-            self.written += 1
-
-    pool = Capture(load_model(), settings, rec.target_geoms, workers=1)
-    try:
-        for x, s in ((q, shapes), (nudged, shapes), (q, shapes), (moved, shapes), (q, other)):
-            pool.feed(x, s, status, False)
-        assert pool._local is not None and pool._local.reused == 2  # drawn 3 times for 5
-        pool.finish()
-    except BaseException:
-        pool.abort(keep=False)
-        raise
+    feeds = [(x, s, status, False) for x, s in ((q, shapes), (nudged, shapes), (q, shapes))]
+    feeds += [(moved, shapes, status, False), (q, other, status, False)]
+    got, reused = _captured(load_model(), settings, rec.target_geoms, 1, feeds)
+    assert reused == 2  # drawn 3 times for 5
     assert [np.array_equal(g, w) for g, w in zip(got, [want[0]] * 3 + want[1:], strict=True)] == [
         True
     ] * 5
