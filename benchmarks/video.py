@@ -51,15 +51,22 @@ def render_only(
     rec: Recording, settings: VideoSettings
 ) -> tuple[float, list[npt.NDArray[np.uint8]]]:
     """Frames per second of rendering alone, in this process, and the frames."""
+    wall, _, frames = _draw_all(rec, settings)
+    return rec.frames / wall, frames
+
+
+def _draw_all(
+    rec: Recording, settings: VideoSettings
+) -> tuple[float, float, list[npt.NDArray[np.uint8]]]:
+    """Draw every frame of ``rec`` (after a warm-up frame): wall and CPU time of this process
+    [s], and the frames."""
     r = FrameRenderer(load_model(), settings, rec.target_geoms)
     r.render(rec.arrays["qpos"][0], rec.shapes_at(0), False)  # warm up
-    frames = []
-    t = time.perf_counter()
-    for i in range(rec.frames):
-        frames.append(r._draw(rec.arrays["qpos"][i], rec.shapes_at(i), False))
-    dt = time.perf_counter() - t
+    t, c = time.perf_counter(), time.process_time()
+    frames = [r._draw(rec.arrays["qpos"][i], rec.shapes_at(i), False) for i in range(rec.frames)]
+    wall, used = time.perf_counter() - t, time.process_time() - c
     r.close()
-    return rec.frames / dt, frames
+    return wall, used, frames
 
 
 def encoder_only(
@@ -119,14 +126,7 @@ def render_cpu(rec: Recording, settings: VideoSettings) -> float:
 
 def _frame_cpu(rec: Recording, settings: VideoSettings) -> float:
     os.environ["LP_NUM_THREADS"] = "0"
-    r = FrameRenderer(load_model(), settings, rec.target_geoms)
-    r.render(rec.arrays["qpos"][0], rec.shapes_at(0), False)  # warm up
-    c = time.process_time()
-    for i in range(rec.frames):
-        r._draw(rec.arrays["qpos"][i], rec.shapes_at(i), False)
-    per = (time.process_time() - c) / rec.frames
-    r.close()
-    return per
+    return _draw_all(rec, settings)[1] / rec.frames
 
 
 def cpu() -> float:
