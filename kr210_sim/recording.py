@@ -28,7 +28,7 @@ import zlib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +37,9 @@ from kr210_sim.errors import ConfigError, RecordingError
 from kr210_sim.outputs import atomic_path, check_writable, is_stream
 
 import mujoco  # isort: skip
+
+if TYPE_CHECKING:
+    from kr210_sim.ik_plugin import UserIk
 
 log = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
@@ -459,7 +462,7 @@ def record_episode(
     scene: Path | None = None,
     rate: float = DEFAULT_RATE,
     model: mujoco.MjModel | None = None,
-    ik: Any = None,
+    ik: UserIk | None = None,
 ) -> EpisodeRecording:
     """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
 
