@@ -34,7 +34,7 @@ scene: $(STAMP)
 	$(PY) -m kr210_sim build-scene
 
 docs: $(STAMP)
-	$(PY) -m kr210_sim.pictures
+	$(PY) -m kr210_sim.media.pictures
 	$(PY) -m kr210_sim snapshot --camera overview --out docs/cell.png
 
 video: $(STAMP)

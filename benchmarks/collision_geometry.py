@@ -8,8 +8,14 @@ Run: python benchmarks/collision_geometry.py
 
 from __future__ import annotations
 
-from kr210_sim.colliders import stick_out
-from kr210_sim.scene import load_model
+import sys
+from pathlib import Path
+
+# The test helpers (tests/) are not part of the package.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from colliders import stick_out
+
+from kr210_sim.cell.mjcf import load_model
 
 
 def main() -> None:

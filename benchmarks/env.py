@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from kr210_sim.envs import ENV_ID, ScriptedExpert
-from kr210_sim.pick_place_env import POLICY_DT, SUBSTEPS
+from kr210_sim.envs.pick_place import POLICY_DT, SUBSTEPS
 
 PHYSICS = [0.0]
 

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from kr210_sim.evaluation import EvalConfig, evaluate
+from kr210_sim.eval.evaluate import EvalConfig, evaluate
 
 
 class _Watch(threading.Thread):

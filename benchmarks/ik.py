@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from kr210_sim import kinematics as kin
+from kr210_sim.robot import kinematics as kin
 
 
 def per_call_us(fn, args_list, repeats: int = 5) -> float:  # type: ignore[no-untyped-def]

@@ -1,7 +1,7 @@
 """Bring-your-own-IK speed: ik-check wall time and time per call, and ten cycles with --ik.
 
 Run: ``python benchmarks/ik_check.py [--cases N]``. Prints figures only. Checks our IK
-(``kr210_sim.kinematics:nearest``) and the worked example (``examples/ik_dh.py:solve``) on the
+(``kr210_sim.robot.kinematics:nearest``) and the worked example (``examples/ik_dh.py:solve``) on the
 fixed cases plus N random ones (the case set is built once and timed separately), then runs
 ``run --cycles 10`` planned with each, and with the worked example minus the 0.054 m offset.
 """
@@ -13,9 +13,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from kr210_sim.ik_plugin import load_ik
-from kr210_sim.ikcheck import check, fixed_cases, random_cases, summarise
-from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.eval.ikcheck import check, fixed_cases, random_cases, summarise
+from kr210_sim.robot.user_ik import load_ik
+from kr210_sim.sim.runner import RunConfig, Runner
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 
@@ -29,7 +29,7 @@ def main() -> None:
     broken = tmp / "ik_no_offset.py"
     broken.write_text(EXAMPLE.read_text().replace("\nA3 = -0.054", "\nA3 = 0.0"))
     specs = {
-        "ours": "kr210_sim.kinematics:nearest",
+        "ours": "kr210_sim.robot.kinematics:nearest",
         "worked": f"{EXAMPLE}:solve",
         "no offset": f"{broken}:solve",
     }

@@ -6,9 +6,9 @@ that needed a detour, successes and robot-cell contact ticks. Run: python benchm
 
 from __future__ import annotations
 
-from kr210_sim.cells import PUBLISHED_CELL, model_for
-from kr210_sim.report import summarise
-from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
+from kr210_sim.score.report import summarise
+from kr210_sim.sim.runner import RunConfig, Runner
 
 CELLS = ("published", "other_side", "grid_4x2", "column")
 

@@ -14,9 +14,9 @@ import argparse
 import time
 
 import kr210_sim  # noqa: F401  (chooses MUJOCO_GL=egl before mujoco is imported)
-from kr210_sim.render import make_renderer, render_frame
-from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.video import QUALITY
+from kr210_sim.media.render import make_renderer, render_frame
+from kr210_sim.media.video import QUALITY
+from kr210_sim.sim.runner import RunConfig, Runner
 
 import mujoco  # isort: skip
 
@@ -58,7 +58,7 @@ def compare(paths: list[str], snaps: list[mujoco.MjData], rounds: int = 5) -> No
     """Bare 640x480 medium-quality cost per frame of each scene file, the committed one first;
     the scenes take turns for ``rounds`` rounds and the fastest round of each counts (a shared
     machine's load comes and goes)."""
-    from kr210_sim.scene import load_model
+    from kr210_sim.cell.mjcf import load_model
 
     shadows, shadow_size, msaa = QUALITY["medium"]
     scenes = []

@@ -16,10 +16,10 @@ from typing import Any
 
 import mujoco
 
-import kr210_sim.control as control
-import kr210_sim.task as task
-import kr210_sim.trajectory as trajectory
-from kr210_sim.runner import RunConfig, Runner
+import kr210_sim.plan.planner as task
+import kr210_sim.plan.trajectory as trajectory
+import kr210_sim.sim.cell as control
+from kr210_sim.sim.runner import RunConfig, Runner
 
 TIMES: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)

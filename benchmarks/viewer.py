@@ -17,7 +17,9 @@ import sys
 import time
 from pathlib import Path
 
-from kr210_sim.chromium import ViewProcess, free_port
+# The test helpers (tests/) are not part of the package.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from chromium import ViewProcess, free_port
 
 
 def pace(speed: float, cycles: int) -> tuple[float, float]:
@@ -36,7 +38,7 @@ def pace(speed: float, cycles: int) -> tuple[float, float]:
 
 def browser_figures(seconds: float, width: int, height: int) -> float:
     """Animation frames per second Chromium gives the page while the cycles run."""
-    from kr210_sim.chromium import Chromium
+    from chromium import Chromium
 
     view = ViewProcess("--cycles", "10", "--report", "reports/bench_view.json")
     try:
@@ -54,9 +56,8 @@ def screenshot(path: Path, width: int, height: int) -> None:
     """The page in demo mode, held before the first carry, taken as the browser test takes it
     (manual frames), saved as a small PNG. Held, so the picture and the panel agree: at software
     rendering's few frames a second the page draws the streamed states late."""
+    from chromium import Chromium
     from PIL import Image
-
-    from kr210_sim.chromium import Chromium
 
     view = ViewProcess(
         "--demo", "--speed", "2", "--cycles", "10", "--report", "reports/bench_view.json"
@@ -106,7 +107,7 @@ def main() -> None:
             f"({wall:5.1f} s wall, {'held' if held else 'NOT held'})"
         )
     print(f"fastest --speed held (>= 95 %): {fastest:g}")
-    from kr210_sim.chromium import find_chromium
+    from chromium import find_chromium
 
     if find_chromium() is None:
         print("no Chromium: frame rate not measured")

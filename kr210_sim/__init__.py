@@ -6,14 +6,14 @@ machines). This must happen before :mod:`mujoco` is imported anywhere, so the pa
 :mod:`mujoco` here, once: when ``MUJOCO_GL`` names no backend mujoco knows, or a backend whose
 library is missing, mujoco's import raises. The physics needs no OpenGL, so mujoco is then
 imported with its OpenGL backend disabled and the reason is kept in :data:`GL_IMPORT_ERROR`;
-rendering (:func:`kr210_sim.render.make_renderer`) refuses with it in one line. MuJoCo's
+rendering (:func:`kr210_sim.media.render.make_renderer`) refuses with it in one line. MuJoCo's
 warnings are routed to :mod:`logging` (logger ``mujoco``) instead of a ``MUJOCO_LOG.TXT`` file in
 the current folder.
 
 The Python API (:mod:`kr210_sim.api`) is reached from the top level without importing it up
 front, so ``import kr210_sim`` stays light: ``kr210_sim.run(...)``, ``kr210_sim.evaluate(...)``,
 ``kr210_sim.ik_check(...)`` and the report types load it on first use (the evaluation's
-machinery is the module :mod:`kr210_sim.evaluation`). The Gymnasium environment is registered by
+machinery is the module :mod:`kr210_sim.eval.evaluate`). The Gymnasium environment is registered by
 ``import kr210_sim.envs``.
 """
 

@@ -35,13 +35,13 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, TextIO
 
 from kr210_sim.errors import ConfigError, VideoFailedError
-from kr210_sim.interrupts import Interrupted
-from kr210_sim.report import report_json
+from kr210_sim.score.report import report_json
+from kr210_sim.util.interrupts import Interrupted
 
 if TYPE_CHECKING:
-    from kr210_sim.ik_plugin import UserIk
-    from kr210_sim.runner import CycleResult
-    from kr210_sim.video import VideoSettings
+    from kr210_sim.media.video import VideoSettings
+    from kr210_sim.robot.user_ik import UserIk
+    from kr210_sim.sim.runner import CycleResult
 
 __all__ = [
     "EvalReport",
@@ -59,7 +59,7 @@ log = logging.getLogger(__name__)
 
 
 def as_user_ik(ik: str | Callable[..., Any] | UserIk | None) -> UserIk | None:
-    """The :class:`~kr210_sim.ik_plugin.UserIk` for an ``ik=`` argument.
+    """The :class:`~kr210_sim.robot.user_ik.UserIk` for an ``ik=`` argument.
 
     Args:
         ik: ``"package.module:function"`` or ``"path/to/file.py:function"`` (loaded as
@@ -70,7 +70,7 @@ def as_user_ik(ik: str | Callable[..., Any] | UserIk | None) -> UserIk | None:
         IkSpecError: When the SPEC names nothing loadable, or ``ik`` is neither a string nor a
             callable.
     """
-    from kr210_sim.ik_plugin import UserIk, ik_from_callable, load_ik
+    from kr210_sim.robot.user_ik import UserIk, ik_from_callable, load_ik
 
     if ik is None or isinstance(ik, UserIk):
         return ik
@@ -126,7 +126,7 @@ class RunReport(Report):
 
     Attributes:
         cycles: One typed record per cycle (``success``, ``reason``, ``detail``, ``cycle_time``,
-            ...; see :class:`~kr210_sim.runner.CycleResult`).
+            ...; see :class:`~kr210_sim.sim.runner.CycleResult`).
         video_path: The MP4 written, or None.
         video_frames: Frames in it.
         video_error: Why the video could not be made (then :func:`run` raised), or None.
@@ -248,7 +248,7 @@ def run(
         ik: Plan with this IK instead of ours: a SPEC string (``"my_ik.py:solve"``), or a
             callable ``solve(T, q_ref) -> q or None`` (see ``examples/ik_template.py``).
         video: Film the run: an MP4 path (default camera and size), or a
-            :class:`~kr210_sim.video.VideoSettings` for cameras, size, fps and quality.
+            :class:`~kr210_sim.media.video.VideoSettings` for cameras, size, fps and quality.
         plots: Folder for the PNG plots, or None.
         scene: Another MJCF cell, or None for the committed scene.
         report: Write the JSON report here (atomically), or None to only return it.
@@ -272,9 +272,9 @@ def run(
         RunInterrupted: Ctrl-C or SIGTERM stopped the cycles (the report of those finished
             was written; it is the exception's ``report``).
     """
-    from kr210_sim.job import run_job
-    from kr210_sim.runner import RunConfig
-    from kr210_sim.video import VideoSettings
+    from kr210_sim.jobs import run_job
+    from kr210_sim.media.video import VideoSettings
+    from kr210_sim.sim.runner import RunConfig
 
     _whole(seed, "seed", 0)
     if not isinstance(randomize, bool):
@@ -330,8 +330,8 @@ def evaluate(
 ) -> EvalReport:
     """Monte-Carlo evaluation over seeded episodes (``python -m kr210_sim evaluate``).
 
-    A thin wrapper of :func:`kr210_sim.evaluation.evaluate`: ``options`` go to its
-    :class:`~kr210_sim.evaluation.EvalConfig` (``backend``, ``address``, ...) as they are.
+    A thin wrapper of :func:`kr210_sim.eval.evaluate.evaluate`: ``options`` go to its
+    :class:`~kr210_sim.eval.evaluate.EvalConfig` (``backend``, ``address``, ...) as they are.
 
     Args:
         episodes: Episodes (>= 1).
@@ -351,9 +351,9 @@ def evaluate(
         SceneError: The scene cannot be loaded.
         RunInterrupted: Ctrl-C stopped it (the report of the episodes finished was written).
     """
-    from kr210_sim import evaluation
-    from kr210_sim.outputs import check_writable
-    from kr210_sim.scene import load_model
+    from kr210_sim.cell.mjcf import load_model
+    from kr210_sim.eval import evaluate as evaluation
+    from kr210_sim.util.outputs import check_writable
 
     try:
         config = evaluation.EvalConfig(
@@ -403,7 +403,7 @@ def ik_check(
         IkSpecError: ``ik`` names nothing loadable.
         ConfigError: A bad argument or an unwritable output.
     """
-    from kr210_sim.ikcheck import run_check
+    from kr210_sim.eval.ikcheck import run_check
 
     if ik is None:
         raise ConfigError("ik_check needs an IK: a SPEC string or a callable solve(T, q_ref)")

@@ -18,14 +18,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from kr210_sim import __version__
-from kr210_sim.console import SafeStream
 from kr210_sim.errors import ConfigError, Kr210SimError
-from kr210_sim.interrupts import exit_code, signal_name, terminate_as_interrupt
-from kr210_sim.progress import ProgressLine
+from kr210_sim.util.console import SafeStream
+from kr210_sim.util.interrupts import exit_code, signal_name, terminate_as_interrupt
+from kr210_sim.util.progress import ProgressLine
 
 if TYPE_CHECKING:
     from kr210_sim.api import RunReport
-    from kr210_sim.video import VideoSettings
+    from kr210_sim.media.video import VideoSettings
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
@@ -62,7 +62,7 @@ def _positive_int(text: str) -> int:
 
 
 def _cycles(text: str) -> int:
-    from kr210_sim.runner import MAX_CYCLES
+    from kr210_sim.sim.runner import MAX_CYCLES
 
     value = _positive_int(text)
     _check(value <= MAX_CYCLES, f"at most {MAX_CYCLES} in one run (use evaluate), got {value}")
@@ -112,7 +112,7 @@ def _load_ik(spec: str | None) -> Any:
     before anything runs."""
     if spec is None:
         return None
-    from kr210_sim.ik_plugin import load_ik
+    from kr210_sim.robot.user_ik import load_ik
 
     return load_ik(spec)
 
@@ -135,7 +135,7 @@ def _video_options(args: argparse.Namespace) -> dict[str, Any]:
 def _cmd_run(args: argparse.Namespace) -> int:
     from kr210_sim.api import RunInterrupted, RunReport, run
     from kr210_sim.errors import VideoFailedError
-    from kr210_sim.video import VideoSettings
+    from kr210_sim.media.video import VideoSettings
 
     ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
     video = None
@@ -190,7 +190,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _print_run(result: RunReport, video: VideoSettings | None) -> None:
     """The summary table and the outputs of ``run`` on stdout."""
-    from kr210_sim.report import summary_table
+    from kr210_sim.score.report import summary_table
 
     out = sys.stdout
     summary = dict(result.summary)
@@ -216,12 +216,12 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from kr210_sim.cells import model_at
-    from kr210_sim.outputs import check_distinct, check_writable, is_stream
-    from kr210_sim.paths import SCENE_PATH
-    from kr210_sim.recording import check_model, read_recording
-    from kr210_sim.replay import default_workers, render_recording
-    from kr210_sim.video import VideoSettings
+    from kr210_sim.cell.toml import model_at
+    from kr210_sim.media.recording import check_model, read_recording
+    from kr210_sim.media.render_pool import default_workers, render_recording
+    from kr210_sim.media.video import VideoSettings
+    from kr210_sim.util.outputs import check_distinct, check_writable, is_stream
+    from kr210_sim.util.paths import SCENE_PATH
 
     rec = read_recording(args.recording)
     recorded_scene = rec.meta.get("scene")
@@ -279,10 +279,10 @@ def _port(text: str) -> int:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from kr210_sim.live import LiveSettings, run_joints, view_job
-    from kr210_sim.report import summary_table
-    from kr210_sim.runner import RunConfig
-    from kr210_sim.viewer import FREE_CAMERA, ViewerSettings, has_display
+    from kr210_sim.score.report import summary_table
+    from kr210_sim.sim.runner import RunConfig
+    from kr210_sim.view.live import LiveSettings, run_joints, view_job
+    from kr210_sim.view.studio import FREE_CAMERA, ViewerSettings, has_display
 
     mode = "window" if args.window else "web" if args.web or not has_display() else "window"
     settings = ViewerSettings(
@@ -324,9 +324,9 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 def _view_replay(args: argparse.Namespace, settings: Any) -> int:
     """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
-    from kr210_sim.cells import model_at
-    from kr210_sim.live import LiveSettings, replay_view
-    from kr210_sim.recording import check_model, read_recording
+    from kr210_sim.cell.toml import model_at
+    from kr210_sim.media.recording import check_model, read_recording
+    from kr210_sim.view.live import LiveSettings, replay_view
 
     if args.demo:
         raise ConfigError("--replay plays a recording: drop --demo")
@@ -352,9 +352,9 @@ def _view_replay(args: argparse.Namespace, settings: Any) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from kr210_sim.cells import model_for
-    from kr210_sim.evaluation import EvalConfig, evaluate
-    from kr210_sim.report import check_writable
+    from kr210_sim.cell.toml import model_for
+    from kr210_sim.eval.evaluate import EvalConfig, evaluate
+    from kr210_sim.score.report import check_writable
 
     config = EvalConfig(
         episodes=args.episodes,
@@ -371,13 +371,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if config.backend == "ray":
         from importlib.util import find_spec
 
-        from kr210_sim.eval_ray import INSTALL_HINT
+        from kr210_sim.eval.ray_backend import INSTALL_HINT
 
         if find_spec("ray") is None:
             raise ConfigError(INSTALL_HINT)
     check_writable(args.report)
     if args.record_failures is not None:
-        from kr210_sim.outputs import check_folder
+        from kr210_sim.util.outputs import check_folder
 
         check_folder(args.record_failures)
     model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
@@ -406,7 +406,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
     )
     if args.record_failures is not None and outcome.signal is None:
-        from kr210_sim.recording import record_failures
+        from kr210_sim.media.recording import record_failures
 
         made = record_failures(
             report["failed_episodes"],
@@ -429,8 +429,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from kr210_sim.cellcheck import check_cell
-    from kr210_sim.cells import model_for
+    from kr210_sim.cell.toml import model_for
+    from kr210_sim.plan.cellcheck import check_cell
 
     result = check_cell(model_for(args.scene, args.cell))
     sys.stdout.write(result.table() + "\n")
@@ -451,7 +451,7 @@ def _cmd_ik_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_demos(args: argparse.Namespace) -> int:
-    from kr210_sim.demos import record_demos
+    from kr210_sim.envs.demos import record_demos
 
     s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
     sys.stdout.write(
@@ -462,7 +462,7 @@ def _cmd_demos(args: argparse.Namespace) -> int:
 
 
 def _cmd_build_scene(args: argparse.Namespace) -> int:
-    from kr210_sim.scene import build_scene
+    from kr210_sim.cell.mjcf import build_scene
 
     for path in build_scene(args.out):
         print(f"wrote {path}")
@@ -470,7 +470,7 @@ def _cmd_build_scene(args: argparse.Namespace) -> int:
 
 
 def _cmd_build_meshes(args: argparse.Namespace) -> int:
-    from kr210_sim.meshes import build_meshes
+    from kr210_sim.robot.meshes import build_meshes
 
     paths = build_meshes(args.out) if args.out else build_meshes()
     print(f"wrote {len(paths)} meshes to {paths[0].parent if paths else args.out}")
@@ -478,8 +478,8 @@ def _cmd_build_meshes(args: argparse.Namespace) -> int:
 
 
 def _cmd_snapshot(args: argparse.Namespace) -> int:
-    from kr210_sim.cells import model_for
-    from kr210_sim.render import snapshot
+    from kr210_sim.cell.toml import model_for
+    from kr210_sim.media.render import snapshot
 
     model = model_for(None, args.cell) if args.cell is not None else None
     path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height, model=model)
@@ -711,7 +711,7 @@ def build_parser() -> argparse.ArgumentParser:
         required=True,
         metavar="SPEC",
         help="package.module:function or path/to/file.py:function (ours: "
-        "kr210_sim.kinematics:nearest)",
+        "kr210_sim.robot.kinematics:nearest)",
     )
     ikc.add_argument(
         "--cases", type=_count, default=1000, help="random poses on top of the fixed set (1000)"
@@ -761,9 +761,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code.
 
-    While a command runs, stdout and stderr are :class:`~kr210_sim.console.SafeStream` objects (a
+    While a command runs, stdout and stderr are :class:`~kr210_sim.util.console.SafeStream` objects
+    (a
     closed pipe or a full device drops console output, never the run) and SIGTERM / SIGHUP
-    stop it like Ctrl-C (:mod:`kr210_sim.interrupts`): exit 130, 143 or 129.
+    stop it like Ctrl-C (:mod:`kr210_sim.util.interrupts`): exit 130, 143 or 129.
     """
     stdout, stderr = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = SafeStream(stdout, "stdout"), SafeStream(stderr, "stderr")
@@ -784,7 +785,7 @@ def _main(argv: list[str] | None) -> int:
         stream=sys.stderr,
     )
     if getattr(args, "out", "") is None and args.command == "build-scene":
-        from kr210_sim.paths import SCENES_DIR
+        from kr210_sim.util.paths import SCENES_DIR
 
         args.out = SCENES_DIR
     try:

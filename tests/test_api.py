@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 import kr210_sim
-from kr210_sim import kinematics
 from kr210_sim.api import RunInterrupted, RunReport
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError, IkSpecError, Kr210SimError
-from kr210_sim.report import strip_wall
-from kr210_sim.runner import CycleResult, Runner
+from kr210_sim.robot import kinematics
+from kr210_sim.score.report import strip_wall
+from kr210_sim.sim.runner import CycleResult, Runner
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -72,8 +72,8 @@ def test_ik_as_a_python_callable() -> None:
     assert theirs.summary["ik"]["calls"] == len(calls) > 20
     assert theirs.cycles[0].success
     assert theirs.cycles[0].cycle_time == ours.cycles[0].cycle_time
-    by_spec = kr210_sim.run(cycles=1, seed=5, ik="kr210_sim.kinematics:nearest")
-    assert by_spec.summary["ik"]["spec"] == "kr210_sim.kinematics:nearest"
+    by_spec = kr210_sim.run(cycles=1, seed=5, ik="kr210_sim.robot.kinematics:nearest")
+    assert by_spec.summary["ik"]["spec"] == "kr210_sim.robot.kinematics:nearest"
 
 
 def test_a_callable_ik_that_misses_fails_its_cycle_not_the_call() -> None:
@@ -121,7 +121,7 @@ def test_ctrl_c_raises_with_the_report_of_the_cycles_done(
 def test_ik_check_takes_a_callable() -> None:
     graded = kr210_sim.ik_check(kinematics.nearest, cases=20, seed=1)
     assert graded.passed and graded.summary["cases"] == len(graded.cases) > 20
-    assert graded.data["config"]["ik"] == "kr210_sim.kinematics:nearest"
+    assert graded.data["config"]["ik"] == "kr210_sim.robot.kinematics:nearest"
 
     def off(T: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
         return kinematics.nearest(T, q_ref) + 0.01
@@ -132,7 +132,7 @@ def test_ik_check_takes_a_callable() -> None:
 
 
 def test_evaluate_wraps_the_evaluation(tmp_path: Path) -> None:
-    from kr210_sim.evaluation import EvalConfig, evaluate
+    from kr210_sim.eval.evaluate import EvalConfig, evaluate
 
     path = tmp_path / "eval.json"
     report = kr210_sim.evaluate(episodes=2, seed=3, report=path)
@@ -154,9 +154,9 @@ def test_evaluate_wraps_the_evaluation(tmp_path: Path) -> None:
 def test_importing_the_package_loads_no_simulation_code() -> None:
     probe = (
         "import sys, kr210_sim; "
-        "print(sorted(m for m in ('kr210_sim.api', 'kr210_sim.runner', 'gymnasium') "
+        "print(sorted(m for m in ('kr210_sim.api', 'kr210_sim.sim.runner', 'gymnasium') "
         "if m in sys.modules)); "
-        "import kr210_sim.evaluation as e; "
+        "import kr210_sim.eval.evaluate as e; "
         "print(callable(kr210_sim.evaluate), e.EvalConfig.__name__)"
     )
     out = subprocess.run(

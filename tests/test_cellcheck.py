@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from kr210_sim.cellcheck import check_cell
-from kr210_sim.cells import PUBLISHED_CELL, model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
 from kr210_sim.cli import main
+from kr210_sim.plan.cellcheck import check_cell
 
 CELLS = PUBLISHED_CELL.parent
 
@@ -50,7 +50,7 @@ def test_the_column_cell_needs_detours_and_gets_them() -> None:
 def test_example_cells_run_with_no_contact(name: str) -> None:
     """Three cycles per example cell (bottom, middle and top rows); `run --cycles 10` on each
     is 10/10 too (README)."""
-    from kr210_sim.runner import RunConfig, Runner
+    from kr210_sim.sim.runner import RunConfig, Runner
 
     runner = Runner(RunConfig(cycles=3), model=model_for(cell=CELLS / f"{name}.toml"))
     n = runner.layout.n_slots

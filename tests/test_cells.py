@@ -9,11 +9,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cells import PUBLISHED_CELL, compile_cell, load_cell, model_for, parse_cell
+from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.toml import PUBLISHED_CELL, compile_cell, load_cell, model_for, parse_cell
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
-from kr210_sim.layout import CellLayout
-from kr210_sim.scene import load_model
 
 PUBLISHED = PUBLISHED_CELL.read_text()
 

@@ -15,7 +15,7 @@ import pytest
 
 from kr210_sim import __version__
 from kr210_sim.cli import main
-from kr210_sim.report import strip_wall
+from kr210_sim.score.report import strip_wall
 
 
 @pytest.mark.parametrize(
@@ -140,7 +140,7 @@ def _run_with_root(root: Path) -> subprocess.CompletedProcess[str]:
     ("urdf", "message"), [(None, "URDF not found"), ("<robot name='x'><link", "malformed")]
 )
 def test_missing_or_malformed_urdf(tmp_path: Path, urdf: str | None, message: str) -> None:
-    from kr210_sim.paths import SCENES_DIR
+    from kr210_sim.util.paths import SCENES_DIR
 
     (tmp_path / "assets" / "kr210").mkdir(parents=True)
     (tmp_path / "scenes").symlink_to(SCENES_DIR)
@@ -158,7 +158,7 @@ def test_ctrl_c_during_a_run_writes_the_cycles_done(
     capsys: pytest.CaptureFixture[str],
     ctrl_c_on_call: Callable[[Callable[..., Any], int], Callable[..., Any]],
 ) -> None:
-    from kr210_sim.runner import Runner
+    from kr210_sim.sim.runner import Runner
 
     monkeypatch.setattr(Runner, "run_cycle", ctrl_c_on_call(Runner.run_cycle, 3))
     report = tmp_path / "run.json"
@@ -199,7 +199,7 @@ def test_absurd_cycle_counts_are_refused(capsys: pytest.CaptureFixture[str]) -> 
 def test_clashing_outputs_are_refused_before_anything_runs(
     tmp_path: Path, outputs: list[str], message: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from kr210_sim.paths import SCENE_PATH
+    from kr210_sim.util.paths import SCENE_PATH
 
     scene_text = SCENE_PATH.read_text()
     (tmp_path / "scene.xml").write_text(scene_text)
@@ -249,8 +249,8 @@ def test_a_read_only_plot_folder_is_refused_up_front(
 
 
 def test_long_runs_keep_no_per_tick_recordings(tmp_path: Path) -> None:
-    from kr210_sim.job import run_job
-    from kr210_sim.runner import RunConfig, Runner
+    from kr210_sim.jobs import run_job
+    from kr210_sim.sim.runner import RunConfig, Runner
 
     runner = Runner(RunConfig(cycles=2, seed=1))
     for i in (1, 2):
@@ -349,7 +349,7 @@ def test_a_bad_gl_backend_stops_only_rendering(tmp_path: Path, gl: str) -> None:
 def test_the_report_may_not_overwrite_the_ik_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from kr210_sim.paths import ROOT
+    from kr210_sim.util.paths import ROOT
 
     user = tmp_path / "my_ik.py"
     user.write_text((ROOT / "examples" / "ik_dh.py").read_text())

@@ -8,15 +8,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics
-from kr210_sim.cells import PUBLISHED_CELL, model_for
-from kr210_sim.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker, check_samples
-from kr210_sim.config import MotionConfig, TargetSpec
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.spec import MotionConfig, TargetSpec
+from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
 from kr210_sim.errors import NoPathError
-from kr210_sim.robot import load_robot
-from kr210_sim.scene import load_model
-from kr210_sim.task import Planner
-from kr210_sim.trajectory import JointLimits, plan_ptp
+from kr210_sim.plan.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker, check_samples
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.trajectory import JointLimits, plan_ptp
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
 
 CELLS = PUBLISHED_CELL.parent
 

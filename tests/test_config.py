@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kr210_sim.cells import published_cell
-from kr210_sim.config import (
+from kr210_sim.cell.spec import (
     CellConfig,
     MotionConfig,
     RandomizationSpec,
     TargetSpec,
 )
+from kr210_sim.cell.toml import published_cell
 from kr210_sim.errors import ConfigError
 
 

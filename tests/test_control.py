@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from kr210_sim.config import MotionConfig
-from kr210_sim.control import Cell, ramp
-from kr210_sim.scene import load_model
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.sim.cell import Cell, ramp
 
 
 def test_step_command_steps_exactly_as_track_on_a_ramp() -> None:

@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cells import PUBLISHED_CELL, load_cell
-from kr210_sim.render import make_renderer, render_frame
-from kr210_sim.robot import ARM_LINKS
-from kr210_sim.scene import CellHandles, load_model
+from kr210_sim.cell.mjcf import CellHandles, load_model
+from kr210_sim.cell.toml import PUBLISHED_CELL, load_cell
+from kr210_sim.media.render import make_renderer, render_frame
+from kr210_sim.robot.description import ARM_LINKS
 
 #: Published link masses [kg] (the dressing must not add any).
 MASSES = {

@@ -15,12 +15,12 @@ from typing import Any
 
 import pytest
 
-import kr210_sim.episode as episode
+import kr210_sim.eval.episode as episode
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
-from kr210_sim.eval_local import LocalBackend
-from kr210_sim.evaluation import EvalConfig, episode_seed, evaluate
-from kr210_sim.report import strip_wall
+from kr210_sim.eval.evaluate import EvalConfig, episode_seed, evaluate
+from kr210_sim.eval.local_backend import LocalBackend
+from kr210_sim.score.report import strip_wall
 
 
 def _same(a: dict[str, Any], b: dict[str, Any]) -> bool:
@@ -165,7 +165,7 @@ def test_workers_are_capped_at_the_episodes_and_warned_above_the_cores(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     cores = len(os.sched_getaffinity(0))
-    with caplog.at_level(logging.WARNING, logger="kr210_sim.evaluation"):
+    with caplog.at_level(logging.WARNING, logger="kr210_sim.eval.evaluate"):
         outcome = evaluate(EvalConfig(episodes=2, workers=cores + 1))
     assert outcome.report["execution"]["workers"] == 2
     assert f"--workers {cores + 1} is more than the {cores} cores" in caplog.text
@@ -189,7 +189,7 @@ def test_address_needs_the_ray_backend(tmp_path: Path, capsys: pytest.CaptureFix
 
 def test_a_signal_waits_for_the_end_of_a_held_block() -> None:
     """SIGTERM while a record is being written and counted: both happen, then it stops."""
-    from kr210_sim.evaluation import Terminated, _signals
+    from kr210_sim.eval.evaluate import Terminated, _signals
 
     before = signal.getsignal(signal.SIGTERM)
     steps: list[str] = []
@@ -210,7 +210,7 @@ def test_a_signal_waits_for_the_end_of_a_held_block() -> None:
 def test_evaluate_plans_with_a_user_ik_in_the_workers(tmp_path: Path) -> None:
     """`evaluate --ik`: the SPEC travels to the worker processes; the broken IK (no 0.054 m
     offset) fails every episode as ik_failed, and the replay command names it."""
-    from kr210_sim.paths import ROOT
+    from kr210_sim.util.paths import ROOT
 
     broken = tmp_path / "broken_ik.py"
     broken.write_text((ROOT / "examples" / "ik_dh.py").read_text().replace("0.054", "0.0"))
@@ -223,7 +223,7 @@ def test_evaluate_plans_with_a_user_ik_in_the_workers(tmp_path: Path) -> None:
 
 
 def test_an_evaluation_of_another_cell_runs_in_it_and_says_how_to_replay(tmp_path: Path) -> None:
-    from kr210_sim.cells import PUBLISHED_CELL
+    from kr210_sim.cell.toml import PUBLISHED_CELL
 
     cell = PUBLISHED_CELL.parent / "grid_4x2.toml"
     out = evaluate(EvalConfig(episodes=2, seed=1, cell=cell), report=tmp_path / "e.json")

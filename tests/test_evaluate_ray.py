@@ -27,8 +27,8 @@ from evaluate_procs import (
     wait_for_records,
 )
 
-from kr210_sim.evaluation import EvalConfig, evaluate
-from kr210_sim.report import strip_wall
+from kr210_sim.eval.evaluate import EvalConfig, evaluate
+from kr210_sim.score.report import strip_wall
 
 ray = pytest.importorskip("ray", reason="needs the [ray] extra: pip install -e '.[ray]'")
 pytestmark = [pytest.mark.ray, pytest.mark.slow]

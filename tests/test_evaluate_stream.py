@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.eval_stream import EpisodeWriter, episodes_path, read_records
+from kr210_sim.eval.stream import EpisodeWriter, episodes_path, read_records
 
 IDENTITY: dict[str, Any] = {"seed": 3, "randomize": True, "scene": None, "versions": {"x": "1"}}
 RECORDS = [{"episode": i, "seed": 10 + i, "success": i != 1} for i in (2, 0, 1)]

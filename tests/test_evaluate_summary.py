@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kr210_sim.eval_summary import EpisodeSummary, percentile, wilson_interval
+from kr210_sim.eval.summary import EpisodeSummary, percentile, wilson_interval
 
 
 @pytest.mark.parametrize(

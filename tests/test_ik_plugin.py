@@ -12,10 +12,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics
-from kr210_sim.config import MotionConfig
+from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ConfigError, IkFailedError, IkSpecError, UnreachablePoseError
-from kr210_sim.ik_plugin import (
+from kr210_sim.plan.planner import Planner
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.user_ik import (
     MAX_LINE_STEP,
     CheckedIk,
     UserIk,
@@ -25,8 +27,6 @@ from kr210_sim.ik_plugin import (
     into_limits,
     load_ik,
 )
-from kr210_sim.robot import load_robot
-from kr210_sim.task import Planner
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
@@ -40,8 +40,8 @@ def _file(tmp_path: Path, text: str, name: str = "my_ik.py") -> Path:
 
 # ----------------------------------------------------------------------------- loading
 def test_module_and_file_specs_load(tmp_path: Path) -> None:
-    ours = load_ik("kr210_sim.kinematics:nearest")
-    assert ours.function is kinematics.nearest and ours.spec == "kr210_sim.kinematics:nearest"
+    ours = load_ik("kr210_sim.robot.kinematics:nearest")
+    assert ours.function is kinematics.nearest and ours.spec == "kr210_sim.robot.kinematics:nearest"
     worked = load_ik(f"{EXAMPLE}:solve")
     T = kinematics.forward(Q)
     np.testing.assert_allclose(worked.function(T, Q), Q, atol=1e-9)
@@ -107,9 +107,9 @@ def test_a_syntax_error_names_the_line(tmp_path: Path) -> None:
     [
         ("no_such_package.ik:solve", "no module named 'no_such_package'"),
         ("kr210_sim.no_such_module:solve", "no module named 'kr210_sim.no_such_module'"),
-        ("kr210_sim.kinematics:no_such", "has no function 'no_such'"),
-        ("kr210_sim.kinematics:TWO_PI", "is a float, not a function"),
-        ("kr210_sim.kinematics", "expected package.module:function"),
+        ("kr210_sim.robot.kinematics:no_such", "has no function 'no_such'"),
+        ("kr210_sim.robot.kinematics:TWO_PI", "is a float, not a function"),
+        ("kr210_sim.robot.kinematics", "expected package.module:function"),
         (":solve", "expected package.module:function"),
     ],
 )
@@ -261,7 +261,9 @@ def test_line_samples_may_not_jump_branch() -> None:
 def test_planner_with_our_ik_as_a_plug_in_plans_the_same_moves() -> None:
     robot, motion = load_robot(), MotionConfig()
     ours = Planner(robot, motion)
-    plugged = Planner(robot, motion, UserIk("kr210_sim.kinematics:nearest", kinematics.nearest))
+    plugged = Planner(
+        robot, motion, UserIk("kr210_sim.robot.kinematics:nearest", kinematics.nearest)
+    )
     target, radius = (2.6, 0.9, 0.914 + 0.125), 0.05
     a = ours.plan_grasp(ours.ready_q, target, radius)
     b = plugged.plan_grasp(plugged.ready_q, target, radius)

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics
 from kr210_sim.cli import main
-from kr210_sim.ik_plugin import UserIk, load_ik
-from kr210_sim.ikcheck import fixed_cases, random_cases, run_check
-from kr210_sim.robot import load_robot
-from kr210_sim.task import grasp_depth
+from kr210_sim.eval.ikcheck import fixed_cases, random_cases, run_check
+from kr210_sim.plan.planner import grasp_depth
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.user_ik import UserIk, load_ik
 
 WORKED = f"{Path(__file__).resolve().parents[1] / 'examples' / 'ik_dh.py'}:solve"
 
@@ -50,7 +50,7 @@ def test_random_cases_are_seeded() -> None:
 
 
 def test_our_ik_passes_every_case() -> None:
-    result = run_check(load_ik("kr210_sim.kinematics:nearest"), n_random=300, seed=1)
+    result = run_check(load_ik("kr210_sim.robot.kinematics:nearest"), n_random=300, seed=1)
     s = result.report["summary"]
     assert result.passed and s["cases"] == 65 + 300 and s["pass_rate"] == 1.0
     assert s["max_position_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-8

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics as kin
 from kr210_sim.errors import Kr210SimError, UnreachablePoseError
-from kr210_sim.paths import URDF_PATH
+from kr210_sim.robot import kinematics as kin
+from kr210_sim.util.paths import URDF_PATH
 
 G = kin.geometry()
 

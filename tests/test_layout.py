@@ -7,11 +7,11 @@ import json
 import mujoco
 import numpy as np
 
+from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cli import main
-from kr210_sim.layout import CellLayout
-from kr210_sim.paths import MESH_DIR, SCENE_PATH
-from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.scoring import in_bin
+from kr210_sim.score.scoring import in_bin
+from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.util.paths import MESH_DIR, SCENE_PATH
 
 
 def _scene_with_bin_moved(dx: float, dy: float) -> mujoco.MjModel:

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from kr210_sim.meshes import BUILDERS, MAIN_FINISH, build_meshes, build_parts, mesh_file
-from kr210_sim.paths import MESH_DIR
+from kr210_sim.robot.meshes import BUILDERS, MAIN_FINISH, build_meshes, build_parts, mesh_file
+from kr210_sim.util.paths import MESH_DIR
 
 
 def test_build_is_byte_identical_and_committed_files_are_current(tmp_path: Path) -> None:

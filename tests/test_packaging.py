@@ -61,7 +61,9 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("KR210_SIM_ROOT", "PYTHONPATH")}
-    where = _run([str(python), "-c", "import kr210_sim.paths as p; print(p.ROOT)"], elsewhere, env)
+    where = _run(
+        [str(python), "-c", "import kr210_sim.util.paths as p; print(p.ROOT)"], elsewhere, env
+    )
     assert Path(where.strip()) == site / "kr210_sim"  # the installed copy, not the sources
     out = _run([str(python), "-m", "kr210_sim", "run", "--cycles", "1"], elsewhere, env)
     assert "PASS: 1/1" in out

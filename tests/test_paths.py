@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.outputs import check_folder, write_bytes_atomic
-from kr210_sim.paths import PACKAGE_DIR, ROOT, find_root
+from kr210_sim.util.outputs import check_folder, write_bytes_atomic
+from kr210_sim.util.paths import PACKAGE_DIR, ROOT, find_root
 
 
 def test_root_holds_the_data() -> None:

@@ -13,10 +13,10 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import kr210_sim.envs  # noqa: E402
+from kr210_sim.envs.pick_place import POLICY_DT, SUBSTEPS, PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
-from kr210_sim.pick_place_env import POLICY_DT, SUBSTEPS, PickPlaceEnv  # noqa: E402
-from kr210_sim.runner import RunConfig, Runner, sample_target  # noqa: E402
-from kr210_sim.scoring import in_bin  # noqa: E402
+from kr210_sim.score.scoring import in_bin  # noqa: E402
+from kr210_sim.sim.runner import RunConfig, Runner, sample_target  # noqa: E402
 
 ENV_ID = kr210_sim.envs.ENV_ID
 

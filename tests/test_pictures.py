@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from kr210_sim.pictures import grasp_states
-from kr210_sim.scene import CellHandles
+from kr210_sim.cell.mjcf import CellHandles
+from kr210_sim.media.pictures import grasp_states
 
 
 def test_grasp_states_cover_the_fingers_closing_on_the_cylinder() -> None:

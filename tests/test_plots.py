@@ -8,8 +8,8 @@ import imageio.v3 as iio
 import pytest
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.plots import write_plots
-from kr210_sim.runner import RunConfig, Runner
+from kr210_sim.media.plots import write_plots
+from kr210_sim.sim.runner import RunConfig, Runner
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from kr210_sim.progress import ProgressLine, VideoProgress, bar
+from kr210_sim.util.progress import ProgressLine, VideoProgress, bar
 
 
 class _Tty(io.StringIO):

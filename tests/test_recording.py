@@ -10,19 +10,19 @@ from typing import Any
 import numpy as np
 import pytest
 
+from kr210_sim.cell.mjcf import load_model
 from kr210_sim.cli import main
 from kr210_sim.errors import RecordingError
-from kr210_sim.job import run_job
-from kr210_sim.recording import (
+from kr210_sim.jobs import run_job
+from kr210_sim.media.recording import (
     VERSION,
     check_model,
     model_identity,
     read_recording,
     record_episode,
 )
-from kr210_sim.report import strip_wall
-from kr210_sim.runner import RunConfig
-from kr210_sim.scene import load_model
+from kr210_sim.score.report import strip_wall
+from kr210_sim.sim.runner import RunConfig
 
 CONFIG = RunConfig(cycles=2, seed=3, randomize=True)
 
@@ -164,7 +164,7 @@ def test_recording_options_are_checked_before_the_run(
 
 
 def test_record_episode_names_the_file_by_seed_and_reason(tmp_path: Path) -> None:
-    from kr210_sim.episode import run_episode
+    from kr210_sim.eval.episode import run_episode
 
     seed = 1234
     expected = run_episode(seed, True)
@@ -179,7 +179,7 @@ def test_record_episode_names_the_file_by_seed_and_reason(tmp_path: Path) -> Non
 
 
 def test_record_failures_records_only_the_failed_episodes(tmp_path: Path) -> None:
-    from kr210_sim.recording import record_failures
+    from kr210_sim.media.recording import record_failures
 
     records = [
         {"seed": 11, "success": True, "reason": None},
@@ -197,7 +197,7 @@ def test_evaluate_records_its_failed_episodes(
 ) -> None:
     """`evaluate --record-failures DIR` in a cell whose shelf is out of reach: the episode
     fails, and its recording is named by seed and reason and reads back."""
-    from kr210_sim.cells import PUBLISHED_CELL
+    from kr210_sim.cell.toml import PUBLISHED_CELL
     from kr210_sim.cli import main
 
     cell = PUBLISHED_CELL.parent / "unreachable.toml"

@@ -9,9 +9,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from kr210_sim.cell.mjcf import load_model
 from kr210_sim.errors import ConfigError
-from kr210_sim.render import make_renderer, snapshot
-from kr210_sim.scene import load_model
+from kr210_sim.media.render import make_renderer, snapshot
 
 pytestmark = pytest.mark.render
 

@@ -15,11 +15,12 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
+from kr210_sim.cell.mjcf import load_model
 from kr210_sim.cli import main
 from kr210_sim.errors import RenderError
-from kr210_sim.job import run_job
-from kr210_sim.recording import read_recording
-from kr210_sim.replay import (
+from kr210_sim.jobs import run_job
+from kr210_sim.media.recording import read_recording
+from kr210_sim.media.render_pool import (
     HOLD,
     FrameRenderer,
     RenderPool,
@@ -28,9 +29,8 @@ from kr210_sim.replay import (
     gl_threads_per_worker,
     render_recording,
 )
-from kr210_sim.runner import RunConfig
-from kr210_sim.scene import load_model
-from kr210_sim.video import VideoSettings
+from kr210_sim.media.video import VideoSettings
+from kr210_sim.sim.runner import RunConfig
 
 pytestmark = pytest.mark.render
 

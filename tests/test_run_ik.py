@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics
 from kr210_sim.cli import main
-from kr210_sim.ik_plugin import UserIk
-from kr210_sim.report import build_report, strip_wall
-from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.scoring import in_bin
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.score.report import build_report, strip_wall
+from kr210_sim.score.scoring import in_bin
+from kr210_sim.sim.runner import RunConfig, Runner
 
 WORKED = f"{Path(__file__).resolve().parents[1] / 'examples' / 'ik_dh.py'}:solve"
 

@@ -8,11 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.config import MotionConfig
-from kr210_sim.report import build_report, strip_wall
-from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.scene import load_model
-from kr210_sim.scoring import in_bin
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.score.report import build_report, strip_wall
+from kr210_sim.score.scoring import in_bin
+from kr210_sim.sim.runner import RunConfig, Runner
 
 
 @pytest.mark.slow

@@ -8,14 +8,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics as kin
-from kr210_sim.cells import published_cell
-from kr210_sim.config import MotionConfig
-from kr210_sim.control import Cell, hold
-from kr210_sim.paths import SCENE_PATH
-from kr210_sim.robot import ARM_JOINTS, ARM_LINKS, FINGER_JOINTS, load_robot
-from kr210_sim.scene import CellHandles, build_scene, load_model
-from kr210_sim.task import Planner, grasp_depth, radial_yaw
+from kr210_sim.cell.mjcf import CellHandles, build_scene, load_model
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.cell.toml import published_cell
+from kr210_sim.plan.planner import Planner, grasp_depth, radial_yaw
+from kr210_sim.robot import kinematics as kin
+from kr210_sim.robot.description import ARM_JOINTS, ARM_LINKS, FINGER_JOINTS, load_robot
+from kr210_sim.sim.cell import Cell, hold
+from kr210_sim.util.paths import SCENE_PATH
 
 
 @pytest.fixture(scope="module")
@@ -140,7 +140,7 @@ def _meshdir(xml: str) -> str:
 
 def test_every_visual_vertex_lies_inside_its_links_colliders(model: mujoco.MjModel) -> None:
     """Computed from whatever meshes are in assets/: each link's hull collider is its mesh."""
-    from kr210_sim.colliders import stick_out
+    from colliders import stick_out
 
     worst = stick_out(model)
     assert set(worst) >= set(ARM_LINKS[1:])  # every moving link

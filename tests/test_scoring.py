@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kr210_sim.layout import BinBox
-from kr210_sim.scoring import (
+from kr210_sim.cell.layout import BinBox
+from kr210_sim.score.scoring import (
     REST_SPEED,
     REST_SPIN,
     REST_WINDOW,

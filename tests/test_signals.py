@@ -111,7 +111,7 @@ def test_stdout_on_a_full_device_does_not_lose_the_report(tmp_path: Path) -> Non
 
 
 def test_deferred_holds_an_interrupt_until_the_step_is_done() -> None:
-    from kr210_sim.interrupts import Interrupted, deferred, terminate_as_interrupt
+    from kr210_sim.util.interrupts import Interrupted, deferred, terminate_as_interrupt
 
     steps: list[str] = []
     with terminate_as_interrupt(), pytest.raises(Interrupted) as caught:

@@ -6,14 +6,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.config import TargetSpec
-from kr210_sim.control import Cell
-from kr210_sim.layout import CellLayout
-from kr210_sim.report import build_report
-from kr210_sim.runner import RunConfig, Runner
-from kr210_sim.scene import load_model
-from kr210_sim.scoring import in_bin
-from kr210_sim.targets import TargetPool
+from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.spec import TargetSpec
+from kr210_sim.score.report import build_report
+from kr210_sim.score.scoring import in_bin
+from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.targets import TargetPool
 
 
 @pytest.mark.slow

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kr210_sim import kinematics as kin
-from kr210_sim.config import MotionConfig
+from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import PlanningError
-from kr210_sim.robot import load_robot
-from kr210_sim.trajectory import (
+from kr210_sim.plan.trajectory import (
     JointLimits,
     check_trajectory,
     plan_cartesian_line,
     plan_ptp,
 )
+from kr210_sim.robot import kinematics as kin
+from kr210_sim.robot.description import load_robot
 
 LIMITS = JointLimits.from_robot(load_robot(), MotionConfig())
 DT = 0.002

@@ -11,10 +11,10 @@ import pytest
 
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
-from kr210_sim.job import run_job
-from kr210_sim.report import strip_wall
-from kr210_sim.runner import RunConfig
-from kr210_sim.video import VideoSettings, overlay_lines
+from kr210_sim.jobs import run_job
+from kr210_sim.media.video import VideoSettings, overlay_lines
+from kr210_sim.score.report import strip_wall
+from kr210_sim.sim.runner import RunConfig
 
 pytestmark = pytest.mark.render
 
@@ -215,7 +215,7 @@ def test_imageio_ffmpeg_exe_errors_name_the_variable(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, exe: str, message: str
 ) -> None:
     from kr210_sim.errors import RenderError
-    from kr210_sim.video import ffmpeg_exe
+    from kr210_sim.media.video import ffmpeg_exe
 
     _fake_ffmpeg(tmp_path / "notffmpeg", "GNU true 9")
     monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", exe.format(d=tmp_path))
@@ -226,7 +226,7 @@ def test_imageio_ffmpeg_exe_errors_name_the_variable(
 
 
 def test_the_overlay_shades_its_box_writes_white_text_and_keeps_few_masks() -> None:
-    from kr210_sim.video import _Overlay
+    from kr210_sim.media.video import _Overlay
 
     overlay = _Overlay(480)
     grey = np.full((480, 640, 3), 120, dtype=np.uint8)

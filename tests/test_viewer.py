@@ -20,13 +20,17 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pytest
+from chromium import ViewProcess, free_port
 
-from kr210_sim import kinematics
-from kr210_sim.chromium import ViewProcess, free_port
+from kr210_sim.cell.mjcf import load_model
 from kr210_sim.cli import main
-from kr210_sim.control import Cell
-from kr210_sim.job import run_job
-from kr210_sim.live import (
+from kr210_sim.jobs import run_job
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
+from kr210_sim.score.report import strip_wall
+from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, Runner
+from kr210_sim.view.live import (
     DEMO_PHASES,
     DemoGate,
     JointPose,
@@ -36,11 +40,7 @@ from kr210_sim.live import (
     rpy_deg,
     view_job,
 )
-from kr210_sim.report import strip_wall
-from kr210_sim.robot import load_robot
-from kr210_sim.runner import SPAWN_SETTLE, RunConfig, Runner
-from kr210_sim.scene import load_model
-from kr210_sim.viewer import FAST_OFF, LiveViewer, ViewerSettings, free_camera_pose
+from kr210_sim.view.studio import FAST_OFF, LiveViewer, ViewerSettings, free_camera_pose
 
 import mujoco  # isort: skip
 
@@ -307,7 +307,7 @@ def decode(png: bytes) -> npt.NDArray[np.int_]:
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    from kr210_sim.chromium import Chromium, find_chromium
+    from chromium import Chromium, find_chromium
 
     if find_chromium() is None:
         why = "no Chromium here (bash .ci/run installs chromium-headless-shell)"
@@ -378,8 +378,8 @@ def test_browser_demo_waits_for_next_then_goes_on(
 
 
 def test_view_replay_plays_a_recording_at_the_asked_speed(tmp_path: Path) -> None:
-    from kr210_sim.live import replay_view
-    from kr210_sim.recording import read_recording
+    from kr210_sim.media.recording import read_recording
+    from kr210_sim.view.live import replay_view
 
     run_job(RunConfig(cycles=1, seed=3), tmp_path / "r.json", record=tmp_path / "r.npz")
     rec = read_recording(tmp_path / "r.npz")

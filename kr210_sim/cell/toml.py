@@ -1,0 +1,416 @@
+"""Cell files: a cell as TOML, checked key by key, compiled to a MuJoCo model on demand.
+
+A cell file has the sections ``[shelf]``, ``[bin]``, ``[target]`` (with ``[target.randomize]``)
+and any number of ``[[obstacles]]``; the README lists every key with its unit. A bad file is one
+:class:`~kr210_sim.errors.ConfigError` naming the file, the key and what was expected. The
+published cell is ``scenes/cells/published.toml``; ``scenes/kr210_cell.xml`` is generated from
+it.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from kr210_sim.cell.spec import (
+    ROBOT_BASE_HEIGHT,
+    ROBOT_BASE_RADIUS,
+    SHELF_POST_WIDTH,
+    BinSpec,
+    CellConfig,
+    ObstacleSpec,
+    RandomizationSpec,
+    ShelfSpec,
+    TargetSpec,
+)
+from kr210_sim.errors import ConfigError, Kr210SimError
+from kr210_sim.util.paths import SCENES_DIR
+
+import mujoco  # isort: skip
+
+#: The published cell.
+PUBLISHED_CELL = SCENES_DIR / "cells" / "published.toml"
+#: Most rows and columns a shelf may have.
+MAX_GRID = 5
+
+_SECTIONS = {"name", "shelf", "bin", "target", "obstacles"}
+_SHELF_KEYS = {
+    "position",
+    "yaw_deg",
+    "rows",
+    "columns",
+    "column_pitch",
+    "row_pitch",
+    "bottom",
+    "depth",
+    "height",
+    "slot_inset",
+}
+_BIN_KEYS = {"position", "size", "wall", "floor_top"}
+_OBSTACLE_KEYS = {"position", "size", "yaw_deg"}
+_TARGET_KEYS = {"radius", "length", "mass", "friction", "randomize"}
+_RANDOM_KEYS = {"xy_offset", "yaw_deg", "radius", "length", "mass", "friction"}
+
+
+class _Reader:
+    """Reads typed values out of one table of a cell file, with one-line errors."""
+
+    def __init__(self, path: Path, section: str, table: Any, keys: set[str]) -> None:
+        self.path, self.section = path, section
+        if not isinstance(table, dict):
+            self.fail("", f"a table ([{section}])", table)
+        unknown = sorted(set(table) - keys)
+        if unknown:
+            raise ConfigError(
+                f"{path}: {section} has an unknown key {unknown[0]!r} "
+                f"(keys: {', '.join(sorted(keys))})"
+            )
+        self.table: dict[str, Any] = table
+
+    def fail(self, key: str, expected: str, got: Any) -> None:
+        where = f"{self.section} {key}".strip()
+        raise ConfigError(f"{self.path}: {where}: expected {expected}, got {got!r}")
+
+    def _get(self, key: str, default: Any) -> Any:
+        if key not in self.table:
+            if default is None:
+                raise ConfigError(f"{self.path}: {self.section} {key}: missing (required)")
+            return default
+        return self.table[key]
+
+    def number(
+        self, key: str, default: float | None = None, positive: bool = False, lo: float = -1e9
+    ) -> float:
+        v = self._get(key, default)
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        if not ok or (positive and v <= 0) or (not positive and v < lo):
+            what = "a positive number" if positive else f"a number >= {lo:g}"
+            self.fail(key, what + (" [m]" if "yaw" not in key else " [deg]"), v)
+        return float(v)
+
+    def integer(self, key: str, lo: int, hi: int) -> int:
+        v = self._get(key, None)
+        if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
+            self.fail(key, f"a whole number from {lo} to {hi}", v)
+        return int(v)
+
+    def vector(self, key: str, n: int, positive: bool = False, default: Any = None) -> list[float]:
+        v = self._get(key, default)
+        ok = (
+            isinstance(v, list)
+            and len(v) == n
+            and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                for x in v
+            )
+        )
+        if not ok or (positive and min(v) <= 0):
+            kind = "positive numbers" if positive else "numbers"
+            self.fail(key, f"a list of {n} {kind} [m]", v)
+        return [float(x) for x in v]
+
+    def range_(
+        self, key: str, default: tuple[float, float], lo: float = 0.0
+    ) -> tuple[float, float]:
+        v = self.vector(key, 2, default=list(default))
+        if v[0] > v[1] or v[0] < lo:
+            self.fail(key, f"[low, high] with {lo:g} <= low <= high", v)
+        return (v[0], v[1])
+
+
+def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
+    """Read a cell from TOML text.
+
+    Args:
+        text: The file's text.
+        path: The file's name, for error messages.
+
+    Raises:
+        ConfigError: One line naming the file, the key and what was expected.
+    """
+    path = Path(path)
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from exc
+    unknown = sorted(set(doc) - _SECTIONS)
+    if unknown:
+        raise ConfigError(
+            f"{path}: unknown section or key {unknown[0]!r} "
+            f"(expected: {', '.join(sorted(_SECTIONS))})"
+        )
+    name = doc.get("name", path.stem)
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{path}: name: expected a non-empty string, got {name!r}")
+    for section in ("shelf", "bin"):
+        if section not in doc:
+            raise ConfigError(f"{path}: [{section}]: missing (required)")
+
+    s = _Reader(path, "[shelf]", doc["shelf"], _SHELF_KEYS)
+    rows = s.integer("rows", 1, MAX_GRID)
+    columns = s.integer("columns", 1, MAX_GRID)
+    raw_pitch = s.table.get("row_pitch", 0.0 if rows == 1 else None)
+    if isinstance(raw_pitch, list):
+        if len(raw_pitch) != rows - 1:
+            s.fail(
+                "row_pitch", f"a positive number or a list of {rows - 1} (rows - 1) [m]", raw_pitch
+            )
+        row_pitch = tuple(s.vector("row_pitch", rows - 1, positive=True))
+    else:
+        pitch = s.number("row_pitch", 0.0 if rows == 1 else None, positive=rows > 1)
+        row_pitch = (pitch,) * (rows - 1)
+    bottom = s.number("bottom", positive=True)
+    top = bottom + sum(row_pitch)
+    shelf = _build(
+        path,
+        "[shelf]",
+        lambda: ShelfSpec(
+            position=tuple(s.vector("position", 2)),  # type: ignore[arg-type]
+            yaw_deg=s.number("yaw_deg", 0.0, lo=-360.0),
+            rows=rows,
+            columns=columns,
+            column_pitch=s.number("column_pitch", positive=True),
+            row_pitch=row_pitch,
+            bottom=bottom,
+            depth=s.number("depth", positive=True),
+            height=s.number("height", round(top + (row_pitch[-1] if row_pitch else 0.8), 9)),
+            slot_inset=s.number("slot_inset", 0.11, positive=True),
+        ),
+    )
+    if shelf.height <= top + 0.3:
+        s.fail("height", f"more than the top board's top + 0.3 m ({top + 0.3:.3f} m)", shelf.height)
+    if shelf.slot_inset >= shelf.depth:
+        s.fail("slot_inset", f"less than the depth ({shelf.depth} m)", shelf.slot_inset)
+
+    b = _Reader(path, "[bin]", doc["bin"], _BIN_KEYS)
+    size = b.vector("size", 3, positive=True)
+    wall = b.number("wall", 0.06, positive=True)
+    floor_top = b.number("floor_top", 0.05, positive=True)
+    if 2 * wall >= min(size[:2]) - 0.1:
+        b.fail("size", f"outer x and y larger than two walls ({2 * wall:g} m) + 0.1 m", size)
+    if floor_top >= size[2]:
+        b.fail("floor_top", f"below the rim ({size[2]:g} m)", floor_top)
+    bin_ = BinSpec(
+        position=tuple(b.vector("position", 2)),  # type: ignore[arg-type]
+        size=tuple(size),  # type: ignore[arg-type]
+        wall=wall,
+        floor_top=floor_top,
+    )
+
+    t = _Reader(path, "[target]", doc.get("target", {}), _TARGET_KEYS)
+    d = TargetSpec()
+    target = TargetSpec(
+        radius=t.number("radius", d.radius, positive=True),
+        length=t.number("length", d.length, positive=True),
+        mass=t.number("mass", d.mass, positive=True),
+        friction=t.number("friction", d.friction, positive=True),
+    )
+    r = _Reader(path, "[target.randomize]", t.table.get("randomize", {}), _RANDOM_KEYS)
+    dr = RandomizationSpec()
+    yaw = r.range_("yaw_deg", (-180.0, 180.0), lo=-360.0)
+    randomization = RandomizationSpec(
+        xy_offset=r.number("xy_offset", dr.xy_offset, lo=0.0),
+        yaw=(math.radians(yaw[0]), math.radians(yaw[1])),
+        radius=r.range_("radius", dr.radius),
+        length=r.range_("length", dr.length),
+        mass=r.range_("mass", dr.mass),
+        friction=r.range_("friction", dr.friction),
+    )
+
+    raw_obstacles = doc.get("obstacles", [])
+    if not isinstance(raw_obstacles, list):
+        raise ConfigError(
+            f"{path}: obstacles: expected [[obstacles]] tables, got {raw_obstacles!r}"
+        )
+    obstacles = []
+    for i, raw in enumerate(raw_obstacles, start=1):
+        o = _Reader(path, f"[[obstacles]] #{i}", raw, _OBSTACLE_KEYS)
+        obstacles.append(
+            ObstacleSpec(
+                position=tuple(o.vector("position", 3)),  # type: ignore[arg-type]
+                size=tuple(o.vector("size", 3, positive=True)),  # type: ignore[arg-type]
+                yaw_deg=o.number("yaw_deg", 0.0, lo=-360.0),
+            )
+        )
+    sha = hashlib.sha256(text.encode()).hexdigest()
+    cell = CellConfig(
+        name=name,
+        shelf=shelf,
+        bin=bin_,
+        target=target,
+        randomization=randomization,
+        obstacles=tuple(obstacles),
+        sha256=sha,
+    )
+    _check_layout(path, cell)
+    return cell
+
+
+def _build(path: Path, section: str, make: Callable[[], Any]) -> Any:
+    try:
+        return make()
+    except ConfigError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ConfigError(f"{path}: {section}: {exc}") from exc
+
+
+# -- footprints ------------------------------------------------------------------------------
+_Rect = tuple[tuple[float, float], tuple[float, float], float]  # centre, half extents, yaw [rad]
+
+
+def _corners(rect: _Rect) -> list[tuple[float, float]]:
+    (cx, cy), (hx, hy), yaw = rect
+    c, s = math.cos(yaw), math.sin(yaw)
+    return [
+        (cx + c * x - s * y, cy + s * x + c * y)
+        for x, y in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))
+    ]
+
+
+def _overlap(a: _Rect, b: _Rect) -> bool:
+    """Whether two rotated rectangles overlap (separating axis test)."""
+    ca, cb = _corners(a), _corners(b)
+    for yaw in (a[2], b[2]):
+        for ax in ((math.cos(yaw), math.sin(yaw)), (-math.sin(yaw), math.cos(yaw))):
+            pa = [x * ax[0] + y * ax[1] for x, y in ca]
+            pb = [x * ax[0] + y * ax[1] for x, y in cb]
+            if max(pa) <= min(pb) or max(pb) <= min(pa):
+                return False
+    return True
+
+
+def _hits_base(rect: _Rect) -> bool:
+    """Whether a rectangle reaches into the robot base's disc around the origin."""
+    (cx, cy), (hx, hy), yaw = rect
+    c, s = math.cos(-yaw), math.sin(-yaw)
+    lx, ly = c * -cx - s * -cy, s * -cx + c * -cy  # the origin in the rectangle's frame
+    dx, dy = max(abs(lx) - hx, 0.0), max(abs(ly) - hy, 0.0)
+    return math.hypot(dx, dy) < ROBOT_BASE_RADIUS
+
+
+def shelf_rect(shelf: ShelfSpec) -> _Rect:
+    """The shelf's footprint."""
+    return (shelf.position, (shelf.depth / 2.0, shelf.half_width), shelf.yaw)
+
+
+def bin_rect(bin_: BinSpec) -> _Rect:
+    """The bin's footprint."""
+    return (bin_.position, (bin_.size[0] / 2.0, bin_.size[1] / 2.0), 0.0)
+
+
+def _check_layout(path: Path, cell: CellConfig) -> None:
+    shelf, bin_ = shelf_rect(cell.shelf), bin_rect(cell.bin)
+    if _overlap(shelf, bin_):
+        raise ConfigError(
+            f"{path}: [shelf] position / [bin] position: expected the shelf and the bin apart, "
+            f"but their footprints overlap"
+        )
+    for what, rect in (("[shelf] position", shelf), ("[bin] position", bin_)):
+        if _hits_base(rect):
+            raise ConfigError(
+                f"{path}: {what}: expected a footprint at least {ROBOT_BASE_RADIUS} m from the "
+                "robot's joint_1 axis, but it reaches into the robot's base"
+            )
+    if cell.shelf.column_pitch <= SHELF_POST_WIDTH + 2 * cell.target.radius + 0.05:
+        raise ConfigError(
+            f"{path}: [shelf] column_pitch: expected more than a post ({SHELF_POST_WIDTH} m), a "
+            f"target ({2 * cell.target.radius:g} m) and 0.05 m, got {cell.shelf.column_pitch!r}"
+        )
+    for i, o in enumerate(cell.obstacles, start=1):
+        rect = (
+            (o.position[0], o.position[1]),
+            (o.size[0] / 2, o.size[1] / 2),
+            math.radians(o.yaw_deg),
+        )
+        bottom = o.position[2] - o.size[2] / 2.0
+        if o.position[2] + o.size[2] / 2.0 <= 0.0:
+            raise ConfigError(
+                f"{path}: [[obstacles]] #{i} position: expected a box above the floor, got "
+                f"{list(o.position)!r}"
+            )
+        if bottom < ROBOT_BASE_HEIGHT and _hits_base(rect):
+            raise ConfigError(
+                f"{path}: [[obstacles]] #{i} position: expected the box clear of the robot's base "
+                f"(within {ROBOT_BASE_RADIUS} m of the joint_1 axis below {ROBOT_BASE_HEIGHT} m), "
+                f"got position {list(o.position)!r} size {list(o.size)!r}"
+            )
+
+
+# -- files and models ------------------------------------------------------------------------
+def load_cell(path: Path | str) -> CellConfig:
+    """Read and check a cell file.
+
+    Raises:
+        ConfigError: When the file is missing, unreadable or bad (one line).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"--cell {path} is a folder: give a .toml file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"cell file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read cell file {path}: {exc}") from exc
+    return parse_cell(text, path)
+
+
+@functools.cache
+def published_cell() -> CellConfig:
+    """The published cell (``scenes/cells/published.toml``)."""
+    return load_cell(PUBLISHED_CELL)
+
+
+def compile_cell(cell: CellConfig) -> mujoco.MjModel:
+    """Compile a cell to a model, through MJCF text exactly as ``build-scene`` writes it (so the
+    published cell compiles to the committed scene's model). Cached by the cell's value."""
+    return _compile_cached(cell)
+
+
+@functools.lru_cache(maxsize=8)
+def _compile_cached(cell: CellConfig) -> mujoco.MjModel:
+    from kr210_sim.cell.mjcf import scene_xml
+
+    xml = scene_xml(cell)
+    try:
+        return mujoco.MjModel.from_xml_string(xml)
+    except Exception as exc:  # pragma: no cover - build_spec compiled it already
+        raise Kr210SimError(f"cell {cell.name} does not load: {exc}") from exc
+
+
+def model_at(path: Path | str | None) -> mujoco.MjModel:
+    """The model of ``path``: a cell file (``.toml``) compiled, an MJCF scene loaded, or the
+    committed scene for None (what recordings and evaluation workers name as their "scene").
+
+    Raises:
+        ConfigError: A bad cell file.
+        SceneError: When the scene cannot be loaded.
+    """
+    if path is not None and Path(path).suffix.lower() == ".toml":
+        return model_for(None, Path(path))
+    return model_for(Path(path) if path is not None else None, None)
+
+
+def model_for(scene: Path | None = None, cell: Path | None = None) -> mujoco.MjModel:
+    """The model a command simulates: ``--cell`` compiled, ``--scene`` loaded, or the committed
+    scene (a copy: callers may change it).
+
+    Raises:
+        ConfigError: When both are given, or the cell file is bad.
+        SceneError: When the scene cannot be loaded.
+    """
+    import copy
+
+    from kr210_sim.cell.mjcf import load_model
+
+    if scene is not None and cell is not None:
+        raise ConfigError("give --scene or --cell, not both (a cell compiles to a scene)")
+    if cell is not None:
+        return copy.copy(compile_cell(load_cell(cell)))
+    return load_model(scene)

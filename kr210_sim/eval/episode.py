@@ -1,0 +1,117 @@
+"""One evaluation episode: a pure function of its seed, run in whichever process holds the model.
+
+Each episode is a fresh cell (a copy of the pristine model, the arm at the ready pose, an empty
+bin) running one cycle of ``RunConfig(cycles=1, seed=episode_seed, randomize=...)``. Episode
+``i``'s seed is drawn from ``numpy.random.SeedSequence([seed, i])``, so results do not depend on
+how episodes are spread over processes or machines, and any episode is replayed exactly by
+``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize]``.
+
+Every process that runs episodes (the driver, a local worker, a Ray worker) loads the scene once
+and keeps it: :func:`run_chunk` is the unit of work that the backends ship.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+
+import mujoco  # isort: skip
+
+#: The scene loaded in this process: (path as given, model). One at a time.
+_PRISTINE: tuple[str | None, mujoco.MjModel] | None = None
+
+
+def episode_seed(seed: int, index: int) -> int:
+    """The seed of episode ``index`` (0-based) of an evaluation seeded with ``seed``."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint32)[0])
+
+
+def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
+    """The pristine model of ``scene`` (an MJCF file, a ``.toml`` cell file compiled, or None
+    for the committed scene), loaded once per process."""
+    global _PRISTINE
+    key = str(scene) if scene is not None else None
+    if _PRISTINE is None or _PRISTINE[0] != key:
+        from kr210_sim.cell.toml import model_at
+
+        _PRISTINE = (key, model_at(scene))
+    return _PRISTINE[1]
+
+
+def run_episode(
+    seed: int, randomize: bool, scene: Path | str | None = None, ik: str | None = None
+) -> CycleResult:
+    """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
+    SPEC ``ik`` (None: ours; loaded once per process)."""
+    config = RunConfig(cycles=1, seed=seed, randomize=randomize)
+    user_ik = None
+    if ik is not None:
+        from kr210_sim.robot.user_ik import load_ik
+
+        user_ik = load_ik(ik)
+    runner = Runner(config, model=copy.copy(load_pristine(scene)), ik=user_ik)
+    return runner.run_cycle(1, runner.slot_for_cycle())
+
+
+def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
+    """The record of one episode (a line of the episodes file; failures also in the report)."""
+    s = r.target.spec
+    return {
+        "episode": index,
+        "seed": seed,
+        "slot": r.slot,
+        "success": r.success,
+        "reason": r.reason,
+        "detail": r.detail,
+        "cycle_time": r.cycle_time,
+        "creep_mm": r.creep_mm,
+        "max_tracking_error_deg": max(r.max_tracking_error_deg),
+        "max_gripper_tracking_error_mm": r.max_gripper_tracking_error_mm,
+        "grasp_attempts": r.grasp_attempts,
+        "target": {
+            "position": [round(x, 6) for x in r.target.position],
+            "yaw": round(r.target.yaw, 6),
+            "radius": round(s.radius, 6),
+            "length": round(s.length, 6),
+            "mass": round(s.mass, 6),
+            "friction": round(s.friction, 6),
+        },
+        "wall_time": r.wall_time,
+    }
+
+
+def record_of(
+    index: int, seed: int, randomize: bool, scene: Path | str | None, ik: str | None = None
+) -> dict[str, Any]:
+    """Run episode ``index`` (seeded ``seed``) and return its record."""
+    return episode_record(index, seed, run_episode(seed, randomize, scene, ik))
+
+
+def run_chunk(
+    jobs: Sequence[tuple[int, int]], randomize: bool, scene: str | None, ik: str | None = None
+) -> dict[str, Any]:
+    """Run a chunk of episodes: the unit of work a backend ships to a worker.
+
+    Args:
+        jobs: ``(index, seed)`` of each episode.
+        randomize: Randomise each episode's target.
+        scene: MJCF scene path (must exist where this runs), or None for the committed scene.
+        ik: SPEC of the user's IK (its file or module must exist where this runs), or None.
+
+    Returns:
+        ``{"records": [record, ...], "versions": {...}}``: the records in ``jobs`` order and the
+        library versions of the process that ran them (the driver refuses mixed versions, which
+        would break the episodes' purity).
+    """
+    from kr210_sim.score.report import versions
+
+    return {
+        "records": [record_of(i, s, randomize, scene, ik) for i, s in jobs],
+        "versions": versions(),
+    }

@@ -1,0 +1,337 @@
+"""The main job: run N cycles, print them, write the report, optionally film and plot the run.
+
+This is what ``python -m kr210_sim run`` does, as a function the CLI and tests call. Order of
+work: check every output path first (a usage error costs nothing: unwritable paths and outputs
+that clash with each other or with an input are refused before anything runs), run the cycles
+(with the state recorders as step hooks: one keeps the states for ``--record``, one feeds the
+video's render pool, so rendering overlaps the simulation), append the closing bin shot, then
+write the report, the recording, finish the video and write the plots. The report is written
+even when the video fails or the run is interrupted (Ctrl-C, SIGTERM): the failure is reported
+afterwards, and an interrupted video keeps the frames of the states simulated so far.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from kr210_sim.cell.toml import model_for
+from kr210_sim.errors import ConfigError, RenderError, UnservableCellError
+from kr210_sim.media.plots import PLOT_NAMES
+from kr210_sim.media.recording import (
+    DEFAULT_RATE,
+    DEFAULT_TAIL,
+    StateRecorder,
+    check_recording_path,
+    model_identity,
+    run_meta,
+    write_recording,
+)
+from kr210_sim.media.render_pool import RenderPool, default_workers
+from kr210_sim.media.video import VideoSettings, _one_line
+from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.score.report import build_report, cycle_line, write_json_atomic
+from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+from kr210_sim.util.interrupts import signal_name
+from kr210_sim.util.outputs import check_distinct, check_folder, check_writable, is_stream
+from kr210_sim.util.paths import SCENE_PATH, URDF_PATH
+from kr210_sim.util.progress import VideoProgress
+
+import mujoco  # isort: skip
+
+
+@dataclass
+class JobResult:
+    """What a job produced.
+
+    Attributes:
+        report: The JSON-ready report.
+        report_path: Where it was written (None: not written).
+        interrupted: The interrupt that stopped the run early (Ctrl-C, SIGTERM), or None.
+        video_frames: Frames written to the video (0 without one).
+        video_error: The one-line reason the video failed, or None.
+        plot_paths: PNG plots written.
+        sim_time: Simulated time at the end of the job, closing shot included [s].
+        results: The cycles run, as the runner scored them.
+        record_frames: Frames in the recording (0 without one).
+    """
+
+    report: dict[str, Any]
+    report_path: Path | None
+    interrupted: KeyboardInterrupt | None = None
+    video_frames: int = 0
+    video_error: str | None = None
+    plot_paths: list[Path] = field(default_factory=list)
+    sim_time: float = 0.0
+    results: list[CycleResult] = field(default_factory=list)
+    record_frames: int = 0
+
+
+def runner_report(
+    runner: Runner, wall_time: float, interrupted: BaseException | bool | None
+) -> dict[str, Any]:
+    """The report of the cycles ``runner`` ran (``run`` and ``view`` alike): its records, events
+    and cell, and the user's IK's call figures when one planned them.
+
+    Args:
+        runner: The runner after its cycles.
+        wall_time: Wall-clock time of the cycles [s].
+        interrupted: The interrupt that stopped them (or True), None/False when they all ran.
+    """
+    report = build_report(
+        runner.config,
+        runner.results,
+        wall_time,
+        interrupted=interrupted,
+        events=runner.events,
+        cell=runner.layout.describe(),
+    )
+    if runner.planner.user_ik is not None:
+        report["summary"]["ik"] = runner.planner.user_ik.summary()
+    return report
+
+
+def run_cycles(
+    runner: Runner, cycles: int, out: TextIO, after: Callable[[int], None] | None = None
+) -> None:
+    """Run cycles 1 to ``cycles`` (each on the slot the run's generator picks), writing each
+    one's line to ``out`` as it ends; ``after(i)`` is called after cycle ``i``'s line."""
+    for i in range(1, cycles + 1):
+        cycle = runner.run_cycle(i, runner.slot_for_cycle())
+        out.write(cycle_line(cycle, cycles) + "\n")
+        out.flush()
+        if after is not None:
+            after(i)
+
+
+def check_outputs(
+    report_path: Path | None,
+    video: VideoSettings | None,
+    plots_dir: Path | None,
+    scene: Path | None,
+    ik: UserIk | None = None,
+    cell: Path | None = None,
+    record: Path | None = None,
+) -> None:
+    """Refuse, before anything runs, outputs that cannot be written or that clash.
+
+    Raises:
+        ConfigError: An output path is unwritable, two outputs name one file, or an output names
+            an input (the scene or cell file, the URDF, the IK file).
+    """
+    if report_path is not None:
+        check_writable(report_path)
+    outputs: dict[str, Path | None] = {"--report": report_path}
+    if video is not None:
+        check_writable(video.path)
+        if is_stream(video.path):
+            raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
+        outputs["--video"] = video.path
+    if record is not None:
+        check_recording_path(record)
+        outputs["--record"] = record
+    if plots_dir is not None:
+        check_folder(plots_dir, PLOT_NAMES)
+        outputs.update({f"--plots {name}": plots_dir / name for name in PLOT_NAMES})
+    inputs: dict[str, Path | None] = {
+        "--scene": scene if scene is not None else SCENE_PATH,
+        "--cell": cell,
+        "the URDF": URDF_PATH,
+        "--ik": ik.source if ik is not None else None,
+    }
+    check_distinct(outputs, inputs)
+
+
+def refuse_unservable(model: mujoco.MjModel) -> None:
+    """Refuse a cell (another than the committed one) none of whose slots can be served.
+
+    Raises:
+        UnservableCellError: With the check's table (see :mod:`kr210_sim.plan.cellcheck`).
+    """
+    from kr210_sim.plan.cellcheck import check_cell
+
+    result = check_cell(model)
+    if not result.any_slot:
+        raise UnservableCellError(
+            f"cell {result.name}: no slot can be served (see the table above)", result.table()
+        )
+
+
+def run_job(
+    config: RunConfig,
+    report_path: Path | None,
+    video: VideoSettings | None = None,
+    plots_dir: Path | None = None,
+    out: TextIO | None = None,
+    progress_stream: TextIO | None = None,
+    scene: Path | None = None,
+    ik: UserIk | None = None,
+    cell: Path | None = None,
+    record: Path | None = None,
+    record_rate: float = DEFAULT_RATE,
+    render_workers: int | None = None,
+) -> JobResult:
+    """Run ``config.cycles`` cycles and write the report (and recording, video and plots).
+
+    Args:
+        config: The run's settings.
+        report_path: JSON report path (None: the report is returned, not written).
+        video: Video settings, or None for no video.
+        plots_dir: Folder for the PNG plots, or None.
+        out: Where the per-cycle lines go (stdout).
+        progress_stream: Where the video progress bar goes (stderr).
+        scene: MJCF scene path (default: the committed scene).
+        cell: Cell file (TOML), compiled instead of a scene.
+        ik: A user's IK function to plan with (default: our closed form); the report's summary
+            then has an ``ik`` block (SPEC, calls, wall time per call).
+        record: Where to write a recording of the run (``.npz``), or None.
+        record_rate: Frames per simulated second of the recording [Hz].
+        render_workers: Processes that render the video (default: one per core; 1 renders in
+            this process).
+
+    Returns:
+        The job's result; ``video_error`` is set (and the report still written) when the video
+        could not be made; ``interrupted`` when Ctrl-C or SIGTERM stopped the cycles (the report
+        then holds those finished, the recording their states, and the video the frames of the
+        states simulated so far).
+
+    Raises:
+        ConfigError: When an output path cannot be written or clashes with another path (checked
+            before any cycle runs).
+        SceneError: When the scene cannot be loaded.
+    """
+    out = out or sys.stdout
+    check_outputs(report_path, video, plots_dir, scene, ik, cell, record)
+    # Without --scene or --cell the runner loads the committed scene itself, after the URDF
+    # (a recording or a video needs the model's identity first: then it is loaded here).
+    model = identity = None
+    if scene is not None or cell is not None or record is not None or video is not None:
+        model = model_for(scene, cell)
+        identity = model_identity(model)  # of the model as loaded, before the run changes it
+    if scene is not None or cell is not None:
+        assert model is not None
+        refuse_unservable(model)
+    runner = Runner(
+        config,
+        model=model,
+        keep_recordings=plots_dir is not None,
+        ik=ik,
+    )
+    geoms = runner.cell.handles.target_geoms
+    recorders: list[StateRecorder] = []
+    states: StateRecorder | None = None
+    if record is not None:
+        states = StateRecorder(runner.model, geoms, runner.status, rate=record_rate)
+        recorders.append(states)
+    pool: RenderPool | None = None
+    progress: VideoProgress | None = None
+    video_error: str | None = None
+    if video is not None:
+        progress = VideoProgress(config.cycles, progress_stream, tail=video.tail)
+        workers = render_workers if render_workers is not None else default_workers()
+        try:  # a bad camera or size raises ConfigError here, before anything has run
+            pool = RenderPool(runner.model, video, geoms, workers, progress)
+        except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
+            video_error = str(exc)
+        else:
+            sink = _guarded(pool)
+            recorders.append(
+                StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
+            )
+    runner.cell.hooks.extend(recorders)
+
+    wall0 = time.perf_counter()
+    interrupted: KeyboardInterrupt | None = None
+    try:
+        run_cycles(
+            runner,
+            config.cycles,
+            out,
+            None if progress is None else lambda i: progress.cycle_done(i, runner.cell.time),
+        )
+        if recorders:  # the closing shot: the bin with the cylinders in it
+            for r in recorders:
+                r.tail = True
+            runner.idle(video.tail if video is not None else DEFAULT_TAIL)
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.util.interrupts)
+        interrupted = exc
+        sys.stderr.write(
+            f"kr210_sim: interrupted after {len(runner.results)} cycles ({signal_name(exc)}); "
+            "writing the report of those\n"
+        )
+    wall = time.perf_counter() - wall0
+    for r in recorders:
+        runner.cell.hooks.remove(r)
+    report = runner_report(runner, wall, interrupted)
+    if report_path is not None:
+        write_json_atomic(report_path, report)
+    result = JobResult(
+        report,
+        report_path,
+        interrupted,
+        video_error=video_error,
+        sim_time=runner.cell.time,
+        results=list(runner.results),
+    )
+    if states is not None and record is not None and identity is not None:
+        settings = None
+        if video is not None:
+            settings = {
+                "cameras": list(video.cameras),
+                "width": video.width,
+                "height": video.height,
+                "fps": video.fps,
+                "quality": video.quality,
+            }
+        meta = run_meta(config, identity, scene if scene is not None else cell, report, settings)
+        result.record_frames = states.frames
+        write_recording(record, states.recording(meta))
+
+    if pool is not None:
+        result.video_frames, result.video_error, stopped = _finish_video(pool)
+        result.interrupted = result.interrupted or stopped
+        if progress is not None:
+            progress.finish(result.video_frames)
+    if plots_dir is not None and runner.results:
+        from kr210_sim.media.plots import write_plots
+
+        result.plot_paths = write_plots(plots_dir, runner.results, runner.recordings, runner.robot)
+    return result
+
+
+def _guarded(pool: RenderPool) -> Any:
+    """The video recorder's sink: frames go to ``pool`` until it fails; then the video is
+    dropped (its error kept on the pool) and the simulation goes on unchanged. An interrupt is
+    not an error and goes through."""
+
+    def sink(*frame: Any) -> None:
+        if pool.error is not None:
+            return
+        try:
+            pool.feed(*frame)
+        except Exception as exc:
+            pool.error = exc
+            pool.abort(keep=False)
+
+    return sink
+
+
+def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt | None]:
+    """Render what is left and close the MP4: (frames, error, interrupt). Ctrl-C here keeps the
+    frames so far."""
+    if pool.error is not None:
+        return 0, f"video recording failed: {_one_line(pool.error)}", None
+    try:
+        return pool.finish(), None, None
+    except KeyboardInterrupt as exc:
+        try:
+            return pool.abort(keep=True), None, exc
+        except RenderError as err:
+            return 0, str(err), exc
+    except RenderError as exc:
+        pool.abort(keep=False)
+        return 0, str(exc), None

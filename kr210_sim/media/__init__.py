@@ -1,0 +1,1 @@
+"""What makes pixels: rendering, video encoding, the render pool, recordings, plots and pictures."""

@@ -1,0 +1,579 @@
+"""Recordings: the states of a run at a fixed rate, enough to render it again from any camera.
+
+A recording is a NumPy ``.npz`` file (compressed, read without pickle) holding, per frame ``i``
+(taken every ``1 / rate`` of simulated time):
+
+* ``time`` [s] and ``qpos`` (the model's whole position vector);
+* what the video overlay shows: ``cycle``, ``slot``, ``done``, ``successes``, ``phase`` and
+  ``event`` (indices into the ``phases`` and ``event_texts`` tables of the metadata), and
+  ``tail`` (True during the closing shot of the bin);
+* the shapes of the target cylinders, which a randomised run changes per cycle: ``shape`` rows
+  (``geom_size``, ``geom_rbound``, ``geom_aabb`` of each geom in ``target_geoms``), one per
+  change, in force from frame ``shape_frame``.
+
+The ``meta`` entry is a JSON text: the format name and :data:`VERSION`, the MuJoCo version, the
+model identity (:func:`model_identity`), the rate, the run's settings and the report's summary and
+events. Reading checks all of it (:func:`read_recording`) and says in one line what is wrong.
+
+Only positions are recorded: rendering a frame needs nothing else (:func:`apply_frame` sets
+``qpos`` and the target shapes and runs MuJoCo's position stage).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import zipfile
+import zlib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import ConfigError, RecordingError
+from kr210_sim.util.outputs import atomic_path, check_writable, is_stream
+
+import mujoco  # isort: skip
+
+if TYPE_CHECKING:
+    from kr210_sim.robot.user_ik import UserIk
+
+log = logging.getLogger(__name__)
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.signedinteger]
+
+#: Name of the container format, in the metadata.
+FORMAT = "kr210_sim.media.recording"
+#: Version of the container format this code writes and reads.
+VERSION = 1
+#: Default frames per simulated second [Hz].
+DEFAULT_RATE = 30
+#: Simulated seconds of the closing bin shot at the end of a recorded run [s].
+DEFAULT_TAIL = 2.5
+#: Per-frame arrays (one row per frame) and the other arrays a recording must hold.
+FRAME_KEYS = ("time", "qpos", "cycle", "slot", "done", "successes", "phase", "event", "tail")
+SHAPE_KEYS = ("shape_frame", "shape", "target_geoms")
+#: Model fields of a target geom that drawing reads and a randomised spawn changes:
+#: geom_size (3), geom_rbound (1), geom_aabb (6).
+SHAPE_WIDTH = 10
+
+
+def model_identity(model: mujoco.MjModel) -> str:
+    """The SHA-256 of the compiled model as MuJoCo saves it (``mj_saveModel``), hex.
+
+    Taken of the model as loaded, before a run changes it: the same scene or cell compiled by the
+    same MuJoCo gives the same digest (however the model was built: from an MJCF file, a cell
+    description or a spec), and any change that reaches the compiled model (a moved shelf, another
+    mesh, a restyled material) gives another.
+    """
+    import hashlib
+
+    buf = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buf)
+    return hashlib.sha256(buf.tobytes()).hexdigest()
+
+
+def target_shapes(model: mujoco.MjModel, geoms: IntArray) -> FloatArray:
+    """The drawn shape of each geom in ``geoms``: ``(len(geoms), 10)`` rows of geom_size,
+    geom_rbound and geom_aabb."""
+    return np.concatenate(
+        [model.geom_size[geoms], model.geom_rbound[geoms, None], model.geom_aabb[geoms]], axis=1
+    )
+
+
+def apply_frame(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    qpos: FloatArray,
+    geoms: IntArray,
+    shapes: FloatArray,
+) -> None:
+    """Put ``data`` in the recorded state: positions, target shapes, then MuJoCo's position stage
+    (kinematics, cameras, lights: what drawing reads)."""
+    data.qpos[:] = qpos
+    model.geom_size[geoms] = shapes[:, 0:3]
+    model.geom_rbound[geoms] = shapes[:, 3]
+    model.geom_aabb[geoms] = shapes[:, 4:10]
+    mujoco.mj_fwdPosition(model, data)
+
+
+@dataclass(frozen=True, slots=True)
+class FrameStatus:
+    """What the overlay shows at one frame (see :func:`kr210_sim.media.video.overlay_lines`).
+
+    Attributes:
+        time: Simulated time [s].
+        cycle: Cycle number (0 before the first).
+        cycles: Cycles in the run.
+        slot: Slot of the cycle (0 before the first).
+        phase: Phase name.
+        done: Cycles finished.
+        successes: Cycles that succeeded.
+        event: Text of the event between cycles being shown, or "".
+    """
+
+    time: float
+    cycle: int
+    cycles: int
+    slot: int
+    phase: str
+    done: int
+    successes: int
+    event: str
+
+    def as_status(self) -> dict[str, object]:
+        """The runner-style status dict (``Runner.status``)."""
+        return {
+            "cycle": self.cycle,
+            "cycles": self.cycles,
+            "slot": self.slot,
+            "phase": self.phase,
+            "done": self.done,
+            "successes": self.successes,
+            "event": self.event,
+        }
+
+    def lines(self) -> list[str]:
+        """The overlay's text lines."""
+        from kr210_sim.media.video import overlay_lines
+
+        return overlay_lines(self.as_status(), self.time)
+
+
+def _status_of(status: Mapping[str, object], time: float) -> FrameStatus:
+    def num(key: str) -> int:
+        return int(status.get(key, 0))  # type: ignore[call-overload]
+
+    return FrameStatus(
+        time=time,
+        cycle=num("cycle"),
+        cycles=num("cycles"),
+        slot=num("slot"),
+        phase=str(status.get("phase", "")),
+        done=num("done"),
+        successes=num("successes"),
+        event=str(status.get("event", "") or ""),
+    )
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A recorded run (see the module docstring for the arrays).
+
+    Attributes:
+        arrays: The arrays, by name.
+        meta: The metadata (JSON-ready).
+    """
+
+    arrays: dict[str, npt.NDArray[Any]]
+    meta: dict[str, Any]
+
+    @property
+    def frames(self) -> int:
+        """Number of frames."""
+        return len(self.arrays["time"])
+
+    @property
+    def rate(self) -> float:
+        """Frames per simulated second [Hz]."""
+        return float(self.meta["rate"])
+
+    @property
+    def target_geoms(self) -> IntArray:
+        """Ids of the geoms whose shapes are recorded."""
+        return self.arrays["target_geoms"].astype(np.int32)
+
+    def shapes_at(self, i: int) -> FloatArray:
+        """The target shapes in force at frame ``i``: ``(len(target_geoms), 10)``."""
+        k = int(np.searchsorted(self.arrays["shape_frame"], i, side="right")) - 1
+        shapes: FloatArray = self.arrays["shape"][max(k, 0)]
+        return shapes
+
+    def status(self, i: int) -> FrameStatus:
+        """What the overlay shows at frame ``i``."""
+        a = self.arrays
+        return FrameStatus(
+            time=float(a["time"][i]),
+            cycle=int(a["cycle"][i]),
+            cycles=int(self.meta["cycles"]),
+            slot=int(a["slot"][i]),
+            phase=str(self.meta["phases"][int(a["phase"][i])]),
+            done=int(a["done"][i]),
+            successes=int(a["successes"][i]),
+            event=str(self.meta["event_texts"][int(a["event"][i])]),
+        )
+
+    def frame_at_time(self, t: float) -> int:
+        """The last frame at or before simulated time ``t`` [s] (the first if none)."""
+        i = int(np.searchsorted(self.arrays["time"], t + 1e-9, side="right")) - 1
+        return max(0, min(i, self.frames - 1))
+
+
+class StateRecorder:
+    """A cell step hook that takes the state every ``1 / rate`` of simulated time.
+
+    Frames are taken at the first physics step at or after ``k / rate`` (as the video's frames
+    always were). Each frame is kept (``keep``) for :meth:`recording` and/or handed to ``sink``
+    (the parallel renderer: ``sink(qpos, shapes, status, tail)``).
+
+    Args:
+        model: The cell model.
+        target_geoms: Ids of the target cylinders' geoms.
+        status: The runner's live status dict (read at every frame).
+        rate: Frames per simulated second [Hz].
+        keep: Keep the frames in memory for :meth:`recording`.
+        sink: Called with every frame as it is taken.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        target_geoms: IntArray,
+        status: Mapping[str, object],
+        rate: float = DEFAULT_RATE,
+        keep: bool = True,
+        sink: Callable[[FloatArray, FloatArray, FrameStatus, bool], None] | None = None,
+    ) -> None:
+        if not 1 <= rate <= 1000:
+            raise ConfigError(f"record rate must be 1-1000 frames per second, got {rate}")
+        self.model = model
+        self.geoms = np.asarray(target_geoms, dtype=np.int32)
+        self.status = status
+        self.rate = float(rate)
+        self.keep = keep
+        self.sink = sink
+        #: True during the closing shot (set by the job before its last idle).
+        self.tail = False
+        self.frames = 0
+        self._next_t = 0.0
+        self._qpos: list[FloatArray] = []
+        self._status: list[FrameStatus] = []
+        self._tail: list[bool] = []
+        self._shape_frame: list[int] = []
+        self._shapes: list[FloatArray] = []
+        self._last_shapes: FloatArray | None = None
+
+    def __call__(self, cell: Any) -> None:
+        """Step hook: take a frame when one is due."""
+        data = cell.data
+        if data.time + 1e-9 >= self._next_t:
+            self.capture(data)
+
+    def capture(self, data: mujoco.MjData) -> None:
+        """Take one frame of ``data`` now (and schedule the next one)."""
+        qpos = data.qpos.copy()
+        shapes = target_shapes(self.model, self.geoms)
+        status = _status_of(self.status, float(data.time))
+        if self.keep:
+            if self._last_shapes is None or not np.array_equal(shapes, self._last_shapes):
+                self._shape_frame.append(self.frames)
+                self._shapes.append(shapes)
+            self._qpos.append(qpos)
+            self._status.append(status)
+            self._tail.append(self.tail)
+        self._last_shapes = shapes
+        self.frames += 1
+        self._next_t = self.frames / self.rate
+        if self.sink is not None:
+            self.sink(qpos, shapes, status, self.tail)
+
+    def recording(self, meta: Mapping[str, Any]) -> Recording:
+        """The frames kept so far as a :class:`Recording` with ``meta`` (the rate, phase and
+        event tables and the cycle count are filled in here)."""
+        st = self._status
+        phases = sorted({s.phase for s in st})
+        events = ["", *sorted({s.event for s in st} - {""})]
+        nq = self.model.nq
+        T = len(self.geoms)
+        if not self._shapes:
+            self._shape_frame.append(0)
+            self._shapes.append(target_shapes(self.model, self.geoms))
+        arrays: dict[str, npt.NDArray[Any]] = {
+            "time": np.array([s.time for s in st], dtype=np.float64),
+            "qpos": np.array(self._qpos, dtype=np.float64).reshape(len(st), nq),
+            "cycle": np.array([s.cycle for s in st], dtype=np.int32),
+            "slot": np.array([s.slot for s in st], dtype=np.int32),
+            "done": np.array([s.done for s in st], dtype=np.int32),
+            "successes": np.array([s.successes for s in st], dtype=np.int32),
+            "phase": np.array([phases.index(s.phase) for s in st], dtype=np.int16),
+            "event": np.array([events.index(s.event) for s in st], dtype=np.int16),
+            "tail": np.array(self._tail, dtype=bool),
+            "shape_frame": np.array(self._shape_frame, dtype=np.int64),
+            "shape": np.array(self._shapes, dtype=np.float64).reshape(-1, T, SHAPE_WIDTH),
+            "target_geoms": self.geoms.copy(),
+        }
+        cycles = int(self.status.get("cycles", 0))  # type: ignore[call-overload]
+        full = {
+            **meta,
+            "format": FORMAT,
+            "version": VERSION,
+            "mujoco": mujoco.__version__,
+            "rate": self.rate,
+            "cycles": cycles,
+            "nq": nq,
+            "phases": phases,
+            "event_texts": events,
+        }
+        return Recording(arrays, full)
+
+
+def check_recording_path(path: Path) -> Path:
+    """Refuse, before anything runs, a recording path that cannot be written.
+
+    Raises:
+        ConfigError: Not ending in ``.npz``, a pipe or device, or unwritable.
+    """
+    if path.suffix.lower() != ".npz":
+        raise ConfigError(f"recording path must end in .npz, got {path}")
+    check_writable(path)
+    if is_stream(path):
+        raise ConfigError(f"--record {path}: a recording needs a regular file")
+    return path
+
+
+def write_recording(path: Path | str, recording: Recording) -> Path:
+    """Write ``recording`` to ``path`` (compressed ``.npz``) atomically.
+
+    Raises:
+        ConfigError: When the file cannot be written.
+    """
+    p = Path(path)
+    meta = np.array(json.dumps(recording.meta, sort_keys=True))
+    with atomic_path(p, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, meta=meta, **recording.arrays)  # type: ignore[arg-type]
+    return p
+
+
+def _fail(path: Path | str, what: str) -> RecordingError:
+    return RecordingError(f"{path}: {what}")
+
+
+def read_recording(path: Path | str) -> Recording:
+    """Read and check a recording.
+
+    Raises:
+        RecordingError: When the file is missing, truncated or not a recording, has an unknown
+            format version, lacks an array or has arrays that disagree (one line each).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise _fail(p, "no such file" if not p.exists() else "not a file")
+    try:
+        with np.load(p, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise _fail(p, f"not a readable recording (truncated or not an .npz: {reason})") from exc
+    if "meta" not in arrays:
+        raise _fail(p, "not a kr210_sim recording (no 'meta' entry)")
+    try:
+        meta = json.loads(str(arrays.pop("meta")))
+    except (json.JSONDecodeError, TypeError) as exc:
+        raise _fail(p, f"its metadata is not JSON ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise _fail(p, f"not a kr210_sim recording (format {meta.get('format')!r})")
+    version = meta.get("version")
+    if version != VERSION:
+        raise _fail(
+            p,
+            f"recording format version {version!r}; this kr210_sim reads version {VERSION}: "
+            "record it again, or replay it with the kr210_sim that wrote it",
+        )
+    missing = [k for k in (*FRAME_KEYS, *SHAPE_KEYS) if k not in arrays]
+    missing += [k for k in ("mujoco", "model_sha256", "rate", "cycles", "nq") if k not in meta]
+    missing += [k for k in ("phases", "event_texts") if k not in meta]
+    if missing:
+        raise _fail(p, f"damaged recording: it lacks {', '.join(repr(k) for k in missing)}")
+    _check_consistent(p, arrays, meta)
+    return Recording(arrays, meta)
+
+
+def _check_consistent(p: Path, a: dict[str, npt.NDArray[Any]], meta: dict[str, Any]) -> None:
+    n = len(a["time"])
+    if n == 0:
+        raise _fail(p, "the recording holds no frames")
+    for k in FRAME_KEYS:
+        if a[k].shape[:1] != (n,):
+            raise _fail(p, f"damaged recording: {k!r} has {a[k].shape[:1]} rows, time has {n}")
+    if a["qpos"].shape != (n, int(meta["nq"])):
+        raise _fail(p, f"damaged recording: qpos is {a['qpos'].shape}, expected ({n}, nq)")
+    T = len(a["target_geoms"])
+    if a["shape"].ndim != 3 or a["shape"].shape[1:] != (T, SHAPE_WIDTH):
+        raise _fail(p, f"damaged recording: shape is {a['shape'].shape}")
+    if len(a["shape_frame"]) != len(a["shape"]) or not len(a["shape"]):
+        raise _fail(p, "damaged recording: shape_frame and shape disagree")
+    if int(a["phase"].max(initial=0)) >= len(meta["phases"]):
+        raise _fail(p, "damaged recording: a phase index is out of range")
+    if int(a["event"].max(initial=0)) >= len(meta["event_texts"]):
+        raise _fail(p, "damaged recording: an event index is out of range")
+    if not np.all(np.isfinite(a["qpos"])) or not np.all(np.diff(a["time"]) > 0):
+        raise _fail(p, "damaged recording: positions not finite or times not increasing")
+
+
+def check_model(path: Path | str, recording: Recording, model: mujoco.MjModel) -> None:
+    """Refuse to render ``recording`` with ``model`` unless it was made with the same MuJoCo
+    version and the same compiled model (scene or cell).
+
+    Raises:
+        RecordingError: Naming what differs and what to do.
+    """
+    meta = recording.meta
+    if meta["mujoco"] != mujoco.__version__:
+        raise _fail(
+            path,
+            f"recorded with MuJoCo {meta['mujoco']}, this is MuJoCo {mujoco.__version__}: "
+            f"replay it with mujoco=={meta['mujoco']}",
+        )
+    if model.nq != int(meta["nq"]) or meta["model_sha256"] != model_identity(model):
+        made = f" (made with --scene {meta['scene']})" if meta.get("scene") else ""
+        raise _fail(
+            path,
+            f"recorded with another scene or cell{made}: model sha256 "
+            f"{str(meta['model_sha256'])[:12]}, this one {model_identity(model)[:12]}; pass "
+            "the --scene it was made with",
+        )
+    T = recording.target_geoms
+    if len(T) and (T.min() < 0 or T.max() >= model.ngeom):
+        raise _fail(path, "damaged recording: target geom ids outside the model")
+
+
+@dataclass(frozen=True, slots=True)
+class EpisodeRecording:
+    """Where :func:`record_episode` wrote a failed episode, and what it was.
+
+    Attributes:
+        path: The recording.
+        reason: The failure reason (or "success").
+        frames: Frames recorded.
+    """
+
+    path: Path
+    reason: str
+    frames: int
+
+
+def record_episode(
+    seed: int,
+    randomize: bool,
+    out_dir: Path | str,
+    scene: Path | None = None,
+    rate: float = DEFAULT_RATE,
+    model: mujoco.MjModel | None = None,
+    ik: UserIk | None = None,
+) -> EpisodeRecording:
+    """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
+
+    Episodes are pure functions of their seed and IK (see :mod:`kr210_sim.eval.evaluate`): a fresh
+    cell and one cycle of ``RunConfig(cycles=1, seed=seed, randomize=randomize)``, so the re-run
+    is the episode. The closing bin shot is recorded too.
+
+    Args:
+        seed: The episode's seed.
+        randomize: Whether the evaluation randomised its targets.
+        out_dir: Folder for the recording (made when missing).
+        scene: MJCF scene of the evaluation (default: the committed scene).
+        rate: Frames per simulated second [Hz].
+        model: A pristine copy of the scene's model, to skip loading it again (it is copied).
+        ik: The user's IK the evaluation planned with (:func:`kr210_sim.robot.user_ik.load_ik`),
+            or None for ours.
+
+    Returns:
+        Where the recording went and the episode's reason (``success`` if it did not fail).
+
+    Raises:
+        ConfigError: When the folder or file cannot be written.
+    """
+    import copy
+
+    from kr210_sim.cell.toml import model_at
+    from kr210_sim.score.report import build_report
+    from kr210_sim.sim.runner import RunConfig, Runner
+    from kr210_sim.util.outputs import check_folder
+
+    folder = check_folder(out_dir)
+    pristine = model if model is not None else model_at(scene)
+    identity = model_identity(pristine)
+    config = RunConfig(cycles=1, seed=seed, randomize=randomize)
+    runner = Runner(config, model=copy.copy(pristine), ik=ik)
+    recorder = StateRecorder(
+        runner.model, runner.cell.handles.target_geoms, runner.status, rate=rate
+    )
+    runner.cell.hooks.append(recorder)
+    result = runner.run_cycle(1, runner.slot_for_cycle())
+    recorder.tail = True
+    runner.idle(DEFAULT_TAIL)
+    runner.cell.hooks.remove(recorder)
+    reason = result.reason or "success"
+    report = build_report(config, runner.results, 0.0, events=runner.events)
+    meta = run_meta(config, identity, scene, report)
+    path = folder / f"{seed}_{reason}.npz"
+    write_recording(path, recorder.recording(meta))
+    return EpisodeRecording(path, reason, recorder.frames)
+
+
+def run_meta(
+    config: Any,
+    identity: str,
+    scene: Path | None,
+    report: Mapping[str, Any] | None,
+    video: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The metadata of a run's recording: settings, model identity, report summary and events."""
+    from kr210_sim import __version__
+
+    meta: dict[str, Any] = {
+        "kr210_sim": __version__,
+        "model_sha256": identity,
+        "scene": str(scene) if scene is not None else None,
+        "run": {"seed": config.seed, "slot": config.slot, "randomize": config.randomize},
+    }
+    if report is not None:
+        meta["summary"] = report.get("summary", {})
+        meta["events"] = report.get("events", [])
+        meta["interrupted"] = bool(report.get("interrupted", False))
+    if video is not None:
+        meta["video"] = dict(video)
+    return meta
+
+
+def record_failures(
+    records: Iterable[Mapping[str, Any]],
+    randomize: bool,
+    out_dir: Path | str,
+    scene: Path | None = None,
+    rate: float = DEFAULT_RATE,
+    ik: str | None = None,
+) -> list[EpisodeRecording]:
+    """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
+
+    Args:
+        records: The evaluation report's episode records (each has ``seed`` and ``success``).
+        randomize: Whether the evaluation randomised its targets.
+        out_dir: Folder for the recordings, named ``<seed>_<reason>.npz``.
+        scene: MJCF scene of the evaluation (default: the committed scene).
+        rate: Frames per simulated second [Hz].
+        ik: SPEC of the user's IK the evaluation planned with (``--ik``), or None for ours.
+
+    Returns:
+        One entry per failed episode, in the records' order.
+    """
+    from kr210_sim.cell.toml import model_at
+    from kr210_sim.util.outputs import check_folder
+
+    failed = [r for r in records if not r["success"]]
+    if not failed:
+        return []
+    check_folder(out_dir)
+    pristine = model_at(scene)
+    user_ik = None
+    if ik is not None:
+        from kr210_sim.robot.user_ik import load_ik
+
+        user_ik = load_ik(ik)
+    return [
+        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, pristine, user_ik)
+        for r in failed
+    ]

@@ -1,0 +1,143 @@
+"""Offscreen rendering: the GL backend check, renderers sized to the scene, and stills.
+
+Importing :mod:`kr210_sim` picks ``MUJOCO_GL=egl`` when no display is set, and imports mujoco
+without OpenGL when ``MUJOCO_GL`` names a backend that cannot be loaded (the physics needs none);
+when no backend works, :func:`make_renderer` raises :class:`RenderError` naming ``MUJOCO_GL`` and
+what to install.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import ConfigError, RenderError
+
+import mujoco  # isort: skip
+
+GL_HELP = (
+    "no OpenGL backend for offscreen rendering (MUJOCO_GL={gl}): install Mesa's EGL "
+    "(Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri) and set MUJOCO_GL=egl, or "
+    "install OSMesa (apt-get install libosmesa6) and set MUJOCO_GL=osmesa"
+)
+
+
+#: Largest frame side [px] (within every OpenGL implementation's renderbuffer limit).
+MAX_FRAME = 8192
+
+
+def camera_names(model: mujoco.MjModel) -> list[str]:
+    """Names of the model's cameras."""
+    return [model.camera(i).name for i in range(model.ncam)]
+
+
+def check_camera(model: mujoco.MjModel, name: str) -> int:
+    """Id of camera ``name``.
+
+    Raises:
+        ConfigError: When there is no such camera (the message lists the names that exist).
+    """
+    cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+    if cid < 0:
+        raise ConfigError(f"no camera {name!r}; cameras: {', '.join(camera_names(model))}")
+    return int(cid)
+
+
+def check_frame_size(width: int, height: int) -> None:
+    """Refuse a frame size no renderer takes.
+
+    Raises:
+        ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
+    """
+    if width < 1 or height < 1:
+        raise ConfigError(f"frame size must be positive, got {width}x{height}")
+    if width > MAX_FRAME or height > MAX_FRAME:
+        raise ConfigError(f"frame {width}x{height} is too large: at most {MAX_FRAME} px a side")
+
+
+def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """An offscreen renderer for ``model`` at ``width`` x ``height`` [px].
+
+    The model's offscreen buffer (``vis.global_.offwidth/offheight``, a render-only field) is
+    enlarged to fit when the frame is bigger than the scene's default.
+
+    Raises:
+        ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
+        RenderError: When no OpenGL backend can be started.
+    """
+    check_frame_size(width, height)
+    import kr210_sim
+
+    gl = os.environ.get("MUJOCO_GL", "unset")
+    if kr210_sim.GL_IMPORT_ERROR is not None:
+        raise RenderError(GL_HELP.format(gl=gl) + f" [{kr210_sim.GL_IMPORT_ERROR}]")
+    glob = model.vis.global_
+    glob.offwidth, glob.offheight = max(glob.offwidth, width), max(glob.offheight, height)
+    try:
+        return mujoco.Renderer(model, height=height, width=width)
+    except Exception as exc:
+        if kr210_sim.GL_CHOSEN_LATE:
+            raise RenderError(
+                "mujoco was imported before kr210_sim, so it did not see MUJOCO_GL=egl: "
+                "import kr210_sim first, or set MUJOCO_GL=egl in the environment"
+            ) from exc
+        raise RenderError(GL_HELP.format(gl=gl) + f" [{type(exc).__name__}: {exc}]") from exc
+
+
+def render_frame(
+    renderer: mujoco.Renderer, data: mujoco.MjData, camera: int | str, shadows: bool = True
+) -> npt.NDArray[np.uint8]:
+    """Render one RGB frame (height, width, 3) of ``data`` from ``camera``."""
+    renderer.update_scene(data, camera=camera)
+    renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+    return renderer.render()
+
+
+def snapshot(
+    out: Path | str,
+    camera: str = "overview",
+    width: int = 1280,
+    height: int = 720,
+    model: mujoco.MjModel | None = None,
+) -> Path:
+    """Render a still of the cell (arm at its ready pose, a target in every slot) to a PNG.
+
+    Args:
+        out: PNG path.
+        camera: Camera name.
+        width: Width [px].
+        height: Height [px].
+        model: The cell model (default: the committed scene).
+
+    Returns:
+        The path written.
+    """
+    import imageio.v3 as iio
+
+    from kr210_sim.cell.layout import CellLayout
+    from kr210_sim.cell.mjcf import CellHandles, load_model
+    from kr210_sim.cell.spec import MotionConfig
+    from kr210_sim.util.outputs import check_writable, write_bytes_atomic
+
+    path = check_writable(out)
+    model = model if model is not None else load_model()
+    check_camera(model, camera)
+    layout = CellLayout.from_model(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    h = CellHandles.from_model(model)
+    data.qpos[h.arm_qpos] = MotionConfig().ready_q
+    for k in range(min(layout.n_slots, len(h.target_qpos))):
+        a = int(h.target_qpos[k])
+        data.qpos[a : a + 3] = layout.slots[k] + (0.0, 0.0, layout.target.length / 2.0)
+        data.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
+    mujoco.mj_forward(model, data)
+    renderer = make_renderer(model, width, height)
+    try:
+        frame = render_frame(renderer, data, camera)
+    finally:
+        renderer.close()
+    return write_bytes_atomic(path, iio.imwrite("<bytes>", frame, extension=".png"))

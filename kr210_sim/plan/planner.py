@@ -1,0 +1,355 @@
+"""Task planning: the gripper poses and joint trajectories of one pick-and-place cycle.
+
+A cycle is planned from the target's *observed* pose (position and size), never from the nominal
+slot. Every gripper pose keeps the gripper level (its z axis up) and points it *radially*, along
+the horizontal line from the joint_1 axis through the target (or the drop point). The published
+plan points the gripper along +x everywhere; pointing it radially keeps the wrist untwisted
+(q4 = q6 = 0, q5 = -(q2 + q3)), so the phase-synchronised joint moves between such poses keep
+the gripper exactly level all the way (the joints move on proportional profiles), the cylinder
+stays upright, and the swing's centripetal pull acts along the fingers towards the fingertip
+lips, which stop it.
+
+Sequence (phase names are what the runner records and the video shows)::
+
+    approach  PTP   ready -> standoff (in front of the target, clear of the shelf)
+    approach  LIN   standoff -> grasp (fingers straddle the cylinder)
+    grasp     grip  close until the grip is confirmed
+    lift      LIN   straight up by ``lift``
+    retreat   LIN   straight back out of the shelf to the standoff (lifted)
+    carry     PTP   to the drop pose above the bin
+    release   grip  open, wait
+    return    PTP   back to the ready pose
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.spec import MotionConfig, TargetSpec
+from kr210_sim.errors import NoPathError, PlanningError, UnreachablePoseError
+from kr210_sim.plan.trajectory import (
+    ChainTrajectory,
+    JointLimits,
+    Trajectory,
+    plan_cartesian_line,
+    plan_ptp,
+)
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import RobotDescription
+from kr210_sim.robot.user_ik import CheckedIk, UserIk
+
+if TYPE_CHECKING:
+    from kr210_sim.plan.collide import CollisionChecker, Hit
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Clearance between the cylinder and the fingertip lips at the grasp, along x [m].
+LIP_CLEARANCE = 0.0005
+
+
+@dataclass(frozen=True, slots=True)
+class Move:
+    """One arm motion of a cycle.
+
+    Attributes:
+        phase: Phase name (approach, lift, retreat, carry, return).
+        kind: "ptp" (joint space) or "lin" (straight line in Cartesian space).
+        trajectory: The time-parametrised joint trajectory.
+    """
+
+    phase: str
+    kind: str
+    trajectory: Trajectory
+
+    @property
+    def q_end(self) -> FloatArray:
+        """Joint state at the end of the move [rad]."""
+        return self.trajectory.sample(self.trajectory.duration)[0]
+
+
+@dataclass(frozen=True, slots=True)
+class GraspPlan:
+    """The moves to pick a target, from the ready pose to the lifted standoff.
+
+    Attributes:
+        T_grasp: gripper_link pose at the grasp (4x4, world frame).
+        approach_ptp: ready -> standoff.
+        approach_lin: standoff -> grasp.
+        lift: grasp -> lifted.
+        retreat: lifted -> lifted standoff.
+    """
+
+    T_grasp: FloatArray
+    approach_ptp: Move
+    approach_lin: Move
+    lift: Move
+    retreat: Move
+
+
+def grasp_depth(robot: RobotDescription, radius: float) -> float:
+    """x of the target's axis in the gripper_link frame at the grasp [m].
+
+    The cylinder sits as far forward as the fingertip lips allow with :data:`LIP_CLEARANCE` to
+    spare, so the lips catch it if it creeps out of the grip during fast swings.
+
+    Args:
+        robot: The robot description (finger and lip geometry).
+        radius: Target radius [m].
+
+    Raises:
+        PlanningError: When the cylinder is too small for the lips to retain it or too large to
+            fit between the open fingers.
+    """
+    d = robot.lip_depth
+    if radius <= d:
+        raise PlanningError(f"target radius {radius:.3f} m is too small for the {d} m lips")
+    open_gap = robot.finger_gap(robot.finger_lower) - 2.0 * d
+    if 2.0 * radius >= open_gap - 0.01:
+        raise PlanningError(
+            f"target diameter {2 * radius:.3f} m does not fit the open fingers ({open_gap:.3f} m)"
+        )
+    return robot.lip_x - math.sqrt(2.0 * radius * d - d * d) - LIP_CLEARANCE
+
+
+def gripper_pose(position: npt.ArrayLike, yaw: float = 0.0) -> FloatArray:
+    """gripper_link pose at ``position`` [m], level, pointing at heading ``yaw`` [rad]."""
+    T = np.eye(4)
+    c, s = math.cos(yaw), math.sin(yaw)
+    T[:3, :3] = ((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
+    T[:3, 3] = np.asarray(position, dtype=np.float64)
+    return T
+
+
+def radial_yaw(position: npt.ArrayLike) -> float:
+    """Heading [rad] of the horizontal line from the joint_1 axis through ``position`` [m]."""
+    p = np.asarray(position, dtype=np.float64)
+    return math.atan2(p[1], p[0])
+
+
+class Planner:
+    """Plans the moves of a cycle with closed-form IK and ruckig.
+
+    Args:
+        robot: The robot description.
+        motion: Motion settings.
+        ik: A user's IK function to plan with instead of :func:`kinematics.nearest`; every
+            answer is checked (:class:`~kr210_sim.robot.user_ik.CheckedIk`) and a bad one raises
+            :class:`~kr210_sim.errors.IkFailedError`.
+        checker: Checks every move against the cell (:mod:`kr210_sim.plan.collide`); a joint-space
+            move that collides is planned again through via points (:meth:`detour`), and a
+            move with no collision-free plan raises :class:`~kr210_sim.errors.NoPathError`.
+            None: moves are not checked.
+    """
+
+    def __init__(
+        self,
+        robot: RobotDescription,
+        motion: MotionConfig,
+        ik: UserIk | None = None,
+        checker: CollisionChecker | None = None,
+    ) -> None:
+        self.robot = robot
+        self.motion = motion
+        self.limits = JointLimits.from_robot(robot, motion)
+        self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
+        self.user_ik = CheckedIk(ik) if ik is not None else None
+        self.checker = checker
+        #: Moves planned through via points so far.
+        self.detours = 0
+        self._returns: dict[bytes, Move] = {}
+
+    # -- collision checks ------------------------------------------------------------------
+    def held_offset(self, radius: float) -> FloatArray:
+        """Centre of a held target in the gripper_link frame [m]."""
+        return np.array([grasp_depth(self.robot, radius), 0.0, -self.motion.grasp_dz])
+
+    def _hit(self, move: Move, held: TargetSpec | None) -> Hit | None:
+        if self.checker is None:
+            return None
+        from kr210_sim.plan.collide import check_samples
+
+        offset = None if held is None else self.held_offset(held.radius)
+        return self.checker.first_hit(check_samples(move.trajectory), held, offset)
+
+    def checked(self, move: Move, held: TargetSpec | None = None) -> Move:
+        """``move`` if it keeps clear of the cell, else a detour (joint-space moves only).
+
+        Raises:
+            NoPathError: When the move collides and no detour clears the cell.
+        """
+        hit = self._hit(move, held)
+        if hit is None:
+            return move
+        if move.kind == "ptp":
+            tried = 0
+            for vias in self._via_candidates(move.trajectory.q_start, move.q_end):
+                tried += 1
+                try:
+                    points = [move.trajectory.q_start, *vias, move.q_end]
+                    segments: list[Trajectory] = [
+                        plan_ptp(a, b, self.limits) for a, b in itertools.pairwise(points)
+                    ]
+                except (PlanningError, UnreachablePoseError):
+                    continue
+                candidate = Move(move.phase, "ptp", ChainTrajectory(segments))
+                if self._hit(candidate, held) is None:
+                    self.detours += 1
+                    return candidate
+            raise NoPathError(
+                f"{move.phase} move: {hit.describe()}, and none of {tried} detours is clear"
+            )
+        raise NoPathError(f"{move.phase} straight-line move: {hit.describe()}")
+
+    def _via_candidates(self, q0: FloatArray, q1: FloatArray) -> list[list[FloatArray]]:
+        """Via points to try, in order: pull in towards the base (at the start's and the goal's
+        heading), rise over, and pull in higher; every one a level, radial gripper pose."""
+        p0, p1 = kinematics.forward(q0)[:3, 3], kinematics.forward(q1)[:3, 3]
+        a0, a1 = math.atan2(p0[1], p0[0]), math.atan2(p1[1], p1[0])
+        r0, r1 = math.hypot(p0[0], p0[1]), math.hypot(p1[0], p1[1])
+        z = max(p0[2], p1[2])
+        plans: list[list[tuple[float, float, float]]] = []
+        for r in (1.4, 1.1):
+            for zz in (z, z + 0.4, 2.3):
+                plans.append([(a0, r, zz), (a1, r, zz)])
+        for zz in (z + 0.5, 2.7):
+            plans.append([(a0, r0, zz), (a1, r1, zz)])
+        out: list[list[FloatArray]] = []
+        for plan in plans:
+            q_ref, vias = q0, []
+            try:
+                for a, r, zz in plan:
+                    T = gripper_pose((r * math.cos(a), r * math.sin(a), zz), a)
+                    q_ref = kinematics.nearest(T, q_ref)
+                    vias.append(q_ref)
+            except UnreachablePoseError:
+                continue
+            out.append(vias)
+        return out
+
+    def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray) -> Move:
+        """A joint-space move at rest at both ends."""
+        return Move(phase, "ptp", plan_ptp(q_start, q_goal, self.limits))
+
+    def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray) -> Move:
+        """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
+        T_start = kinematics.forward(q_start)
+        ik = kinematics.nearest if self.user_ik is None else self.user_ik.line_ik(f"{phase} line")
+        traj = plan_cartesian_line(
+            T_start,
+            T_goal,
+            q_start,
+            ik,
+            self.limits,
+            speed=self.motion.lin_speed,
+            step=self.motion.lin_step,
+        )
+        return Move(phase, "lin", traj)
+
+    def solve(self, T: FloatArray, q_ref: FloatArray, what: str) -> FloatArray:
+        """IK for ``T`` nearest ``q_ref``, with the pose named in the error message."""
+        if self.user_ik is not None:
+            return self.user_ik.solve(T, q_ref, f"{what} pose")
+        try:
+            return kinematics.nearest(T, q_ref)
+        except UnreachablePoseError as exc:
+            raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
+
+    def grasp_poses(
+        self, target_position: npt.ArrayLike, target_radius: float
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """gripper_link poses (4x4) of a pick: standoff, grasp, lift and lifted standoff.
+
+        Args:
+            target_position: Observed target centre [m].
+            target_radius: Target radius [m].
+        """
+        m = self.motion
+        p = np.asarray(target_position, dtype=np.float64)
+        depth = grasp_depth(self.robot, target_radius)
+        yaw = radial_yaw(p)
+        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
+        up = np.array([0.0, 0.0, 1.0])
+        grasp = p - depth * u + m.grasp_dz * up
+        T_grasp = gripper_pose(grasp, yaw)
+        T_standoff = gripper_pose(grasp - m.standoff * u, yaw)
+        T_lift = gripper_pose(grasp + m.lift * up, yaw)
+        T_back = gripper_pose(grasp - m.standoff * u + m.lift * up, yaw)
+        return T_standoff, T_grasp, T_lift, T_back
+
+    def plan_grasp(
+        self,
+        q_start: FloatArray,
+        target_position: npt.ArrayLike,
+        target_radius: float,
+        held_length: float | None = None,
+    ) -> GraspPlan:
+        """Plan ready -> standoff -> grasp -> lift -> retreat for a target.
+
+        Args:
+            q_start: Arm joint state at the start [rad].
+            target_position: Observed target centre [m].
+            target_radius: Target radius [m].
+            held_length: Target length [m], for the collision checks of the held target.
+
+        Raises:
+            UnreachablePoseError: When a pose has no IK solution inside the limits.
+            NoPathError: When a move collides with the cell and no detour is clear.
+            IkFailedError: When the user's IK gives an unusable answer.
+            PlanningError: When a trajectory breaks a limit.
+        """
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, target_radius)
+        q_standoff = self.solve(T_standoff, q_start, "standoff")
+        approach_ptp = self.ptp("approach", q_start, q_standoff)
+        approach_lin = self.lin("approach", q_standoff, T_grasp)
+        lift = self.lin("lift", approach_lin.q_end, T_lift)
+        retreat = self.lin("retreat", lift.q_end, T_back)
+        if self.checker is not None:
+            held = TargetSpec(radius=target_radius, length=held_length or 0.25)
+            approach_ptp = self.checked(approach_ptp)
+            self.checked(approach_lin)
+            self.checked(lift)  # the target starts on its board: the arm alone is checked
+            self.checked(retreat, held)
+        return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat)
+
+    def drop_pose(self, drop_xy: npt.ArrayLike, target_radius: float) -> FloatArray:
+        """gripper_link pose that holds the target's centre above ``drop_xy`` [m] at release."""
+        xy = np.asarray(drop_xy, dtype=np.float64)
+        yaw = math.atan2(xy[1], xy[0])
+        depth = grasp_depth(self.robot, target_radius)
+        p = np.array(
+            [xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw), self.motion.drop_height]
+        )
+        return gripper_pose(p, yaw)
+
+    def plan_carry(
+        self,
+        q_start: FloatArray,
+        drop_xy: npt.ArrayLike,
+        target_radius: float,
+        target_length: float = 0.25,
+    ) -> Move:
+        """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]
+        (checked with the target held, detoured if it must be)."""
+        q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop")
+        held = TargetSpec(radius=target_radius, length=target_length)
+        return self.checked(self.ptp("carry", q_start, q_drop), held)
+
+    def plan_return(self, q_start: FloatArray) -> Move:
+        """Joint-space move from ``q_start`` back to the ready pose (checked, detoured if it
+        must be; the last one is remembered, so planning it ahead costs nothing later)."""
+        key = np.asarray(q_start, dtype=np.float64).tobytes()
+        if key not in self._returns:
+            self._returns = {key: self.checked(self.ptp("return", q_start, self.ready_q))}
+        return self._returns[key]
+
+    def check_ready(self) -> None:
+        """Raise PlanningError when the configured ready pose breaks a joint limit."""
+        lo, hi = self.robot.q_lower, self.robot.q_upper
+        if np.any(self.ready_q < lo) or np.any(self.ready_q > hi):
+            raise PlanningError(f"ready_q {self.ready_q.tolist()} is outside the joint limits")

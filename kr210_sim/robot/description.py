@@ -1,0 +1,191 @@
+"""The KR210 robot description, read from the URDF with yourdfpy.
+
+The URDF is the single source of truth for the arm's geometry and limits: kinematics, planning
+and the scene builder all read their constants from :func:`load_robot`, never from literals.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import SceneError
+from kr210_sim.util.paths import URDF_PATH
+
+#: Names of the six revolute arm joints, base to wrist.
+ARM_JOINTS: tuple[str, ...] = tuple(f"joint_{i}" for i in range(1, 7))
+#: Names of the two prismatic finger joints (right first).
+FINGER_JOINTS: tuple[str, ...] = ("right_gripper_finger_joint", "left_gripper_finger_joint")
+#: Links of the arm chain in order, base to gripper.
+ARM_LINKS: tuple[str, ...] = (
+    "base_link",
+    "link_1",
+    "link_2",
+    "link_3",
+    "link_4",
+    "link_5",
+    "link_6",
+    "gripper_link",
+)
+
+
+@dataclass(frozen=True, slots=True)
+class JointInfo:
+    """One URDF joint as the rest of the package needs it.
+
+    Attributes:
+        name: URDF joint name.
+        parent: Parent link name.
+        child: Child link name.
+        origin: 4x4 transform parent -> joint frame at zero position.
+        axis: Unit joint axis in the joint frame (zeros for fixed joints).
+        lower: Lower position limit in [rad] or [m].
+        upper: Upper position limit in [rad] or [m].
+        velocity: Velocity limit in [rad/s] or [m/s].
+        effort: Effort limit in [N m] or [N].
+    """
+
+    name: str
+    parent: str
+    child: str
+    origin: npt.NDArray[np.float64]
+    axis: npt.NDArray[np.float64]
+    lower: float
+    upper: float
+    velocity: float
+    effort: float
+
+
+@dataclass(frozen=True, slots=True)
+class RobotDescription:
+    """The figures of the KR210 read from its URDF.
+
+    Attributes:
+        urdf_path: Path of the URDF it was read from.
+        joints: Every joint by name, in URDF order.
+        q_lower: Lower limits of the six arm joints in [rad], shape (6,).
+        q_upper: Upper limits of the six arm joints in [rad], shape (6,).
+        qd_max: Velocity limits of the six arm joints in [rad/s], shape (6,).
+        finger_lower: Lower finger joint limit in [m] (fully open).
+        finger_upper: Upper finger joint limit in [m] (fully closed).
+        finger_speed: Finger velocity limit in [m/s].
+        finger_gap_at_zero: Distance between the inner finger faces at zero finger position [m].
+        finger_center_x: x of the finger pads' centre in the gripper_link frame [m].
+        lip_x: x of the fingertip lips' inner (palm-side) faces in the gripper_link frame [m].
+        lip_depth: How far each lip stands out of its finger's inner face [m].
+    """
+
+    urdf_path: Path
+    joints: dict[str, JointInfo]
+    q_lower: npt.NDArray[np.float64]
+    q_upper: npt.NDArray[np.float64]
+    qd_max: npt.NDArray[np.float64]
+    finger_lower: float
+    finger_upper: float
+    finger_speed: float
+    finger_gap_at_zero: float
+    finger_center_x: float
+    lip_x: float
+    lip_depth: float
+
+    def finger_gap(self, finger_q: float) -> float:
+        """Distance between the inner finger faces [m] at finger position ``finger_q`` [m]."""
+        return self.finger_gap_at_zero - 2.0 * finger_q
+
+    def finger_q_for_gap(self, gap: float) -> float:
+        """Finger joint position in [m] that leaves ``gap`` [m] between the inner finger faces."""
+        return (self.finger_gap_at_zero - gap) / 2.0
+
+
+def _finger_boxes(urdf: object, link_name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(origin xyz, box size) of the finger's collision boxes in [m]: the pad, then the lip."""
+    link = urdf.link_map[link_name]  # type: ignore[attr-defined]
+    boxes = []
+    for collision in link.collisions:
+        box = collision.geometry.box
+        if box is not None:
+            origin = collision.origin if collision.origin is not None else np.eye(4)
+            boxes.append((np.asarray(origin)[:3, 3], np.asarray(box.size, dtype=np.float64)))
+    if len(boxes) != 2:
+        raise SceneError(
+            f"{link_name} needs two collision boxes in the URDF (pad, fingertip lip), "
+            f"found {len(boxes)}"
+        )
+    return boxes
+
+
+@lru_cache(maxsize=4)
+def load_robot(urdf_path: Path | str = URDF_PATH) -> RobotDescription:
+    """Read the robot description from a URDF.
+
+    Args:
+        urdf_path: Path of the KR210 URDF.
+
+    Returns:
+        The parsed description (cached per path).
+
+    Raises:
+        SceneError: When the file is missing, malformed or lacks a joint this package needs.
+    """
+    import yourdfpy
+
+    path = Path(urdf_path)
+    if not path.is_file():
+        raise SceneError(f"URDF not found: {path} (regenerate or restore assets/kr210/kr210.urdf)")
+    try:  # yourdfpy's own messages on bad XML are vague: check well-formedness first
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        raise SceneError(f"malformed URDF {path}: {exc}") from exc
+    yourdfpy_log = logging.getLogger("yourdfpy")
+    level = yourdfpy_log.level
+    yourdfpy_log.setLevel(logging.CRITICAL)  # it logs before raising; we raise one clear line
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False
+        )
+    except Exception as exc:  # yourdfpy raises many kinds on bad URDF content
+        raise SceneError(f"malformed URDF {path}: {type(exc).__name__}: {exc}") from exc
+    finally:
+        yourdfpy_log.setLevel(level)
+    joints: dict[str, JointInfo] = {}
+    for j in urdf.robot.joints:
+        limit = j.limit
+        joints[j.name] = JointInfo(
+            name=j.name,
+            parent=j.parent,
+            child=j.child,
+            origin=np.array(j.origin if j.origin is not None else np.eye(4), dtype=np.float64),
+            axis=np.array(j.axis if j.axis is not None else np.zeros(3), dtype=np.float64),
+            lower=float(limit.lower) if limit is not None and limit.lower is not None else 0.0,
+            upper=float(limit.upper) if limit is not None and limit.upper is not None else 0.0,
+            velocity=float(limit.velocity) if limit is not None and limit.velocity else 0.0,
+            effort=float(limit.effort) if limit is not None and limit.effort else 0.0,
+        )
+    missing = [n for n in (*ARM_JOINTS, *FINGER_JOINTS, "gripper_joint") if n not in joints]
+    if missing:
+        raise SceneError(f"URDF {path} lacks joints {missing}; found {sorted(joints)}")
+    arm = [joints[n] for n in ARM_JOINTS]
+    right = joints[FINGER_JOINTS[0]]
+    (pad_xyz, pad_size), (lip_xyz, lip_size) = _finger_boxes(urdf, right.child)
+    gap0 = 2.0 * (abs(float(right.origin[1, 3])) - float(pad_size[1]) / 2.0)
+    finger_x = float(right.origin[0, 3])
+    return RobotDescription(
+        urdf_path=path,
+        joints=joints,
+        q_lower=np.array([j.lower for j in arm]),
+        q_upper=np.array([j.upper for j in arm]),
+        qd_max=np.array([j.velocity for j in arm]),
+        finger_lower=right.lower,
+        finger_upper=right.upper,
+        finger_speed=right.velocity,
+        finger_gap_at_zero=gap0,
+        finger_center_x=finger_x + float(pad_xyz[0]),
+        lip_x=finger_x + float(lip_xyz[0] - lip_size[0] / 2.0),
+        lip_depth=float(lip_size[1]),
+    )

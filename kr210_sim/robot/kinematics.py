@@ -1,0 +1,648 @@
+"""Closed-form forward and inverse kinematics of the KR210 (numpy only, no MuJoCo).
+
+Geometry is read from the URDF joint origins (:func:`kr210_sim.robot.description.load_robot`),
+never typed
+in twice. In the URDF frames (every joint origin has rpy = 0)::
+
+    T_base_gripper = Tz(d0) Rz(q1) T(a1, 0, h1) Ry(q2) Tz(a2) Ry(q3) T(a3x, 0, a3z) Rx(q4)
+                     Tx(d4b) Ry(q5) Tx(d5) Rx(q6) Tx(dg)
+
+Axes 4, 5 and 6 meet at the wrist centre (the link_5 origin), ``d5 + dg`` = 0.303 m behind
+gripper_link along its x axis: inverse kinematics splits into the wrist-centre position (q1, q2,
+q3 in closed form: shoulder front/back x elbow up/down) and the wrist orientation (q4, q5, q6:
+two wrist flips), up to 8 solutions.
+
+Conventions:
+
+* Angles in [rad], lengths in [m]; poses are 4x4 homogeneous transforms ``T_base_gripper`` of
+  the URDF ``gripper_link`` frame in the ``base_link`` frame.
+* ``inverse`` returns each branch with joints 1, 4 and 6 wrapped to (-pi, pi] when that is inside
+  the limits, otherwise shifted by 2 pi into them; branches that break a limit are dropped.
+* At the wrist singularity (|sin q5| < 1e-9) only q4 + q6 (or q4 - q6) is defined: ``inverse``
+  sets q4 = 0, ``nearest`` keeps q4 at the reference's value.
+* ``nearest`` measures distance in time: sum of ((q - q_ref) / v_max)^2 over the joints, and
+  picks, for joints 1, 4 and 6, the 2 pi twin inside the limits closest to the reference.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import UnreachablePoseError
+from kr210_sim.robot.description import ARM_JOINTS, load_robot
+
+FloatArray = npt.NDArray[np.float64]
+TWO_PI = 2.0 * math.pi
+#: Tolerance of the rotation checks on input poses.
+ORTHO_TOL = 1e-6
+#: |sin q5| below which the wrist counts as straight (singular).
+WRIST_SINGULAR = 1e-9
+#: Slack on the joint limits when checking solutions [rad].
+LIMIT_SLACK = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class Geometry:
+    """The KR210 constants the closed form needs, read from the URDF.
+
+    Attributes:
+        d0: Height of joint_1 above the base [m].
+        a1: Forward offset of joint_2 from the joint_1 axis [m].
+        h1: Height of joint_2 above joint_1 [m].
+        a2: Length of link_2 (joint_2 to joint_3) [m].
+        a3x: Forearm length from joint_3 to the wrist centre along x [m].
+        a3z: Forearm offset from joint_3 to the wrist centre along z [m] (negative: below).
+        dg: Wrist centre to gripper_link along the gripper x axis [m].
+        lower: Lower joint limits [rad], shape (6,).
+        upper: Upper joint limits [rad], shape (6,).
+        v_max: Joint velocity limits [rad/s], shape (6,).
+    """
+
+    d0: float
+    a1: float
+    h1: float
+    a2: float
+    a3x: float
+    a3z: float
+    dg: float
+    lower: FloatArray
+    upper: FloatArray
+    v_max: FloatArray
+    lower_list: list[float] = field(default_factory=list, repr=False, compare=False)
+    upper_list: list[float] = field(default_factory=list, repr=False, compare=False)
+    inv_v2_list: list[float] = field(default_factory=list, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # Plain-float copies for the single-pose path (numpy scalars are slow in math code).
+        object.__setattr__(self, "lower_list", self.lower.tolist())
+        object.__setattr__(self, "upper_list", self.upper.tolist())
+        object.__setattr__(self, "inv_v2_list", (1.0 / (self.v_max * self.v_max)).tolist())
+
+    @property
+    def forearm(self) -> float:
+        """Distance from joint_3 to the wrist centre [m]."""
+        return math.hypot(self.a3x, self.a3z)
+
+    @property
+    def forearm_angle(self) -> float:
+        """Angle of the wrist centre below the forearm line, seen from joint_3 [rad]."""
+        return math.atan2(-self.a3z, self.a3x)
+
+    @property
+    def reach(self) -> float:
+        """Largest distance from joint_2 to the wrist centre [m]."""
+        return self.a2 + self.forearm
+
+
+@lru_cache(maxsize=1)
+def geometry() -> Geometry:
+    """The geometry of the committed URDF (cached)."""
+    robot = load_robot()
+    j = robot.joints
+
+    def xyz(name: str) -> FloatArray:
+        origin = j[name].origin
+        if not np.allclose(origin[:3, :3], np.eye(3), atol=1e-12):
+            raise ValueError(f"{name} has a rotated origin; the closed form assumes rpy = 0")
+        return origin[:3, 3]
+
+    expected_axes = ((0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0))
+    for name, axis in zip(ARM_JOINTS, expected_axes, strict=True):
+        if not np.allclose(j[name].axis, axis):
+            raise ValueError(f"{name} axis {j[name].axis} is not {axis}: not a KR210 URDF")
+    o1, o2, o3, o4, o5, o6, og = (xyz(n) for n in (*ARM_JOINTS, "gripper_joint"))
+    if abs(o5[2]) > 1e-12 or abs(o6[2]) > 1e-12 or abs(og[2]) > 1e-12 or abs(o4[1]) > 1e-12:
+        raise ValueError("the wrist axes do not meet in one point: no closed form")
+    return Geometry(
+        d0=float(o1[2]),
+        a1=float(o2[0]),
+        h1=float(o2[2]),
+        a2=float(o3[2]),
+        a3x=float(o4[0] + o5[0]),
+        a3z=float(o4[2]),
+        dg=float(o6[0] + og[0]),
+        lower=robot.q_lower.copy(),
+        upper=robot.q_upper.copy(),
+        v_max=robot.qd_max.copy(),
+    )
+
+
+# --------------------------------------------------------------------------- input checks
+def _check_q(q: npt.ArrayLike) -> FloatArray:
+    arr = np.asarray(q, dtype=np.float64)
+    if arr.shape[-1:] != (6,) or arr.ndim not in (1, 2):
+        raise ValueError(f"q must have shape (6,) or (N, 6), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("q contains NaN or inf")
+    return arr
+
+
+def _check_pose_scalar(arr: FloatArray) -> None:
+    """:func:`_check_pose` for one (4, 4) pose, in pure Python (a few microseconds)."""
+    (a, b, c, px), (d, e, f, py), (g, h, k, pz), bottom = arr.tolist()
+    if not math.isfinite(a + b + c + d + e + f + g + h + k + px + py + pz + sum(bottom)):
+        raise ValueError("pose contains NaN or inf")
+    if bottom != [0.0, 0.0, 0.0, 1.0]:
+        raise ValueError("pose bottom row must be [0, 0, 0, 1]")
+    err = max(
+        abs(a * a + d * d + g * g - 1.0),
+        abs(b * b + e * e + h * h - 1.0),
+        abs(c * c + f * f + k * k - 1.0),
+        abs(a * b + d * e + g * h),
+        abs(a * c + d * f + g * k),
+        abs(b * c + e * f + h * k),
+    )
+    if err > ORTHO_TOL:
+        raise ValueError(f"pose rotation is not orthonormal (|R^T R - I| = {err:.2e})")
+    if a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0:
+        raise ValueError("pose rotation is a reflection (det R = -1)")
+
+
+def _check_pose(T: npt.ArrayLike) -> FloatArray:
+    arr = np.asarray(T, dtype=np.float64)
+    if arr.shape == (4, 4):
+        _check_pose_scalar(arr)
+        return arr
+    if arr.shape[-2:] != (4, 4) or arr.ndim not in (2, 3):
+        raise ValueError(f"pose must have shape (4, 4) or (N, 4, 4), got {arr.shape}")
+    n = arr.shape[0]
+    if n <= CHUNK:
+        checks = [_check_chunk(arr)]
+    else:  # large batches: checked chunk by chunk on the thread pool, like the solve
+        checks = list(_pool().map(lambda i: _check_chunk(arr[i : i + CHUNK]), range(0, n, CHUNK)))
+    finite, bottom, err, det = (
+        all(c[0] for c in checks),
+        max(c[1] for c in checks),
+        max(c[2] for c in checks),
+        min(c[3] for c in checks),
+    )
+    if not finite:
+        raise ValueError("pose contains NaN or inf")
+    if bottom > 1e-12:
+        raise ValueError("pose bottom row must be [0, 0, 0, 1]")
+    if err > ORTHO_TOL:
+        raise ValueError(f"pose rotation is not orthonormal (|R^T R - I| = {err:.2e})")
+    if det < 0:
+        raise ValueError("pose rotation is a reflection (det R = -1)")
+    return arr
+
+
+def _check_chunk(T: FloatArray) -> tuple[bool, float, float, float]:
+    """(all finite, largest bottom-row deviation, largest |R^T R - I| entry, smallest det R)
+    for poses (n, 4, 4), from elementwise products of contiguous rows (much faster than batched
+    3x3 matmul and det in numpy)."""
+    if not T.shape[0]:
+        return True, 0.0, 0.0, 1.0
+    flat = T.reshape(-1, 16).T.copy()  # (16, n), row k = entry (k // 4, k % 4)
+    finite = bool(np.isfinite(flat).all())
+    if not finite:
+        return False, 0.0, 0.0, 1.0
+    bottom = float(np.abs(flat[12:16] - np.array([[0.0], [0.0], [0.0], [1.0]])).max())
+    r = [[flat[4 * i + j] for j in range(3)] for i in range(3)]
+    err = np.zeros(flat.shape[1])
+    for a in range(3):
+        for b in range(a, 3):
+            d = r[0][a] * r[0][b] + r[1][a] * r[1][b] + r[2][a] * r[2][b] - (a == b)
+            np.maximum(err, np.abs(d), out=err)
+    det = (
+        r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+        - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+        + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0])
+    )
+    return True, bottom, float(err.max()), float(det.min())
+
+
+# --------------------------------------------------------------------------- forward
+def forward(q: npt.ArrayLike) -> FloatArray:
+    """Pose of gripper_link in the base_link frame.
+
+    Args:
+        q: Joint positions [rad], shape (6,) or (N, 6).
+
+    Returns:
+        ``T_base_gripper``, shape (4, 4) or (N, 4, 4).
+
+    Raises:
+        ValueError: On a wrong shape, NaN or inf.
+    """
+    qa = _check_q(q)
+    g = geometry()
+    if qa.ndim == 1:
+        return _forward_scalar(qa.tolist(), g)
+    single = False
+    qb = qa.reshape(-1, 6)
+    c = np.cos(qb)
+    s = np.sin(qb)
+    c1, c4, c5, c6 = c[:, 0], c[:, 3], c[:, 4], c[:, 5]
+    s1, s4, s5, s6 = s[:, 0], s[:, 3], s[:, 4], s[:, 5]
+    q23 = qb[:, 1] + qb[:, 2]
+    c23, s23 = np.cos(q23), np.sin(q23)
+    s2, c2 = s[:, 1], c[:, 1]
+    # R3_6 = Rx(q4) Ry(q5) Rx(q6)
+    r36 = np.empty((len(qb), 3, 3))
+    r36[:, 0, 0] = c5
+    r36[:, 0, 1] = s5 * s6
+    r36[:, 0, 2] = s5 * c6
+    r36[:, 1, 0] = s4 * s5
+    r36[:, 1, 1] = c4 * c6 - s4 * c5 * s6
+    r36[:, 1, 2] = -c4 * s6 - s4 * c5 * c6
+    r36[:, 2, 0] = -c4 * s5
+    r36[:, 2, 1] = s4 * c6 + c4 * c5 * s6
+    r36[:, 2, 2] = -s4 * s6 + c4 * c5 * c6
+    # R0_3 = Rz(q1) Ry(q2 + q3)
+    r03 = np.empty((len(qb), 3, 3))
+    r03[:, 0, 0] = c1 * c23
+    r03[:, 0, 1] = -s1
+    r03[:, 0, 2] = c1 * s23
+    r03[:, 1, 0] = s1 * c23
+    r03[:, 1, 1] = c1
+    r03[:, 1, 2] = s1 * s23
+    r03[:, 2, 0] = -s23
+    r03[:, 2, 1] = 0.0
+    r03[:, 2, 2] = c23
+    R = r03 @ r36
+    radial = g.a1 + g.a2 * s2 + g.a3x * c23 + g.a3z * s23
+    z = g.d0 + g.h1 + g.a2 * c2 - g.a3x * s23 + g.a3z * c23
+    T = np.zeros((len(qb), 4, 4))
+    T[:, :3, :3] = R
+    T[:, 0, 3] = radial * c1 + g.dg * R[:, 0, 0]
+    T[:, 1, 3] = radial * s1 + g.dg * R[:, 1, 0]
+    T[:, 2, 3] = z + g.dg * R[:, 2, 0]
+    T[:, 3, 3] = 1.0
+    return T[0] if single else T
+
+
+def _forward_scalar(q: list[float], g: Geometry) -> FloatArray:
+    """:func:`forward` for one joint state, in pure ``math`` (the same formulas)."""
+    q1, q2, q3, q4, q5, q6 = q
+    c1, s1 = math.cos(q1), math.sin(q1)
+    c4, s4 = math.cos(q4), math.sin(q4)
+    c5, s5 = math.cos(q5), math.sin(q5)
+    c6, s6 = math.cos(q6), math.sin(q6)
+    c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
+    # R3_6 = Rx(q4) Ry(q5) Rx(q6)
+    a00, a01, a02 = c5, s5 * s6, s5 * c6
+    a10, a11, a12 = s4 * s5, c4 * c6 - s4 * c5 * s6, -c4 * s6 - s4 * c5 * c6
+    a20, a21, a22 = -c4 * s5, s4 * c6 + c4 * c5 * s6, -s4 * s6 + c4 * c5 * c6
+    # R0_3 = Rz(q1) Ry(q23): rows (c1 c23, -s1, c1 s23), (s1 c23, c1, s1 s23), (-s23, 0, c23)
+    b00, b01, b02 = c1 * c23, -s1, c1 * s23
+    b10, b11, b12 = s1 * c23, c1, s1 * s23
+    r00 = b00 * a00 + b01 * a10 + b02 * a20
+    r01 = b00 * a01 + b01 * a11 + b02 * a21
+    r02 = b00 * a02 + b01 * a12 + b02 * a22
+    r10 = b10 * a00 + b11 * a10 + b12 * a20
+    r11 = b10 * a01 + b11 * a11 + b12 * a21
+    r12 = b10 * a02 + b11 * a12 + b12 * a22
+    r20 = -s23 * a00 + c23 * a20
+    r21 = -s23 * a01 + c23 * a21
+    r22 = -s23 * a02 + c23 * a22
+    radial = g.a1 + g.a2 * math.sin(q2) + g.a3x * c23 + g.a3z * s23
+    z = g.d0 + g.h1 + g.a2 * math.cos(q2) - g.a3x * s23 + g.a3z * c23
+    return np.array(
+        [
+            [r00, r01, r02, radial * c1 + g.dg * r00],
+            [r10, r11, r12, radial * s1 + g.dg * r10],
+            [r20, r21, r22, z + g.dg * r20],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+# --------------------------------------------------------------------------- inverse (batch)
+def _wrap(a: FloatArray) -> FloatArray:
+    """Angles wrapped to (-pi, pi]."""
+    w = np.remainder(a + math.pi, TWO_PI) - math.pi
+    return np.where(w <= -math.pi, w + TWO_PI, w)
+
+
+#: Poses per work chunk of the batch path: small enough that the temporaries stay in cache.
+CHUNK = 16384
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _pool() -> ThreadPoolExecutor:
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(
+            max_workers=max(1, min(4, os.cpu_count() or 1)), thread_name_prefix="kr210-ik"
+        )
+    return _POOL
+
+
+def _inverse_batch(T: FloatArray) -> FloatArray:
+    """All 8 branches inside the limits for poses (N, 4, 4) -> (N, 8, 6), NaN elsewhere.
+
+    Works in chunks of :data:`CHUNK` poses (cache-sized temporaries), spread over a small thread
+    pool for large batches (numpy releases the GIL in its loops).
+    """
+    g = geometry()
+    n = T.shape[0]
+    if n <= CHUNK:
+        return _fit_limits(_branches(T, g), g)
+    out = np.empty((n, 8, 6))
+
+    def work(i: int) -> None:
+        out[i : i + CHUNK] = _fit_limits(_branches(T[i : i + CHUNK], g), g)
+
+    list(_pool().map(work, range(0, n, CHUNK)))
+    return out
+
+
+def _branches(T: FloatArray, g: Geometry) -> FloatArray:
+    """The 8 geometric branches for poses (N, 4, 4) -> (N, 8, 6), NaN where one does not exist.
+
+    No joint limit is applied; angles are as atan2 gives them. Branch b = 4 * shoulder +
+    2 * elbow + flip (0 = front / elbow +acos / flip +), the order of the single-pose path.
+    """
+    n = T.shape[0]
+    R = T[:, :3, :3]
+    w = T[:, :3, 3] - g.dg * R[:, :, 0]
+    L, phi, a2 = g.forearm, g.forearm_angle, g.a2
+    shoulder = np.array([1.0, -1.0])
+    base_q1 = np.arctan2(w[:, 1], w[:, 0])
+    q1 = base_q1[:, None] + np.array([0.0, math.pi])  # (N, 2)
+    rho = np.hypot(w[:, 0], w[:, 1])
+    zz = (w[:, 2] - g.d0 - g.h1)[:, None]  # (N, 1)
+    x = shoulder * rho[:, None] - g.a1  # (N, 2)
+    cos_d = (x * x + zz * zz - a2 * a2 - L * L) / (2.0 * a2 * L)
+    exists = np.abs(cos_d) <= 1.0 + 1e-12
+    np.clip(cos_d, -1.0, 1.0, out=cos_d)
+    acos = np.arccos(cos_d)
+    # elbow +/-: delta = +/-acos, so q2 = pi/2 - atan2(zz, x) +/- atan2(L sin|delta|, a2 + L cos)
+    A = np.arctan2(zz, x)
+    B = np.arctan2(L * np.sqrt(1.0 - cos_d * cos_d), a2 + L * cos_d)
+    q2 = np.stack([math.pi / 2.0 - A + B, math.pi / 2.0 - A - B], axis=2).reshape(n, 4)
+    q3 = np.stack([-acos, acos], axis=2).reshape(n, 4) - (phi + math.pi / 2.0)
+    q1_4 = np.repeat(q1, 2, axis=1)
+    c1b, s1b = np.cos(base_q1)[:, None], np.sin(base_q1)[:, None]
+    sign = np.array([1.0, 1.0, -1.0, -1.0])  # cos/sin(q1 + pi) = -cos/sin(q1)
+    c1, s1 = c1b * sign, s1b * sign
+    q23 = q2 + q3
+    c23, s23 = np.cos(q23), np.sin(q23)
+    # R3_6 = Ry(q23)^T Rz(q1)^T R: only the entries the wrist angles need.
+    r = [[R[:, i, j][:, None] for j in range(3)] for i in range(3)]
+    t0 = [c1 * r[0][j] + s1 * r[1][j] for j in range(3)]
+    m10 = -s1 * r[0][0] + c1 * r[1][0]
+    m11 = -s1 * r[0][1] + c1 * r[1][1]
+    m00 = t0[0] * c23 - r[2][0] * s23
+    m01 = t0[1] * c23 - r[2][1] * s23
+    m02 = t0[2] * c23 - r[2][2] * s23
+    m20 = t0[0] * s23 + r[2][0] * c23
+    m21 = t0[1] * s23 + r[2][1] * c23
+    s5 = np.hypot(m10, m20)
+    singular = s5 < WRIST_SINGULAR
+    flip = np.array([1.0, -1.0])[None, None, :]
+    q5 = np.arctan2(flip * s5[..., None], m00[..., None])  # (N, 4, 2)
+    q4 = np.arctan2(flip * m10[..., None], -flip * m20[..., None])
+    q6 = np.arctan2(flip * m01[..., None], flip * m02[..., None])
+    if singular.any():
+        pos = m00 > 0
+        q4 = np.where(singular[..., None], 0.0, q4)
+        q5 = np.where(singular[..., None], np.where(pos, 0.0, math.pi)[..., None], q5)
+        q6s = np.arctan2(np.where(pos, 1.0, -1.0) * m21, m11)
+        q6 = np.where(singular[..., None], q6s[..., None], q6)
+    out = np.empty((n, 4, 2, 6))
+    out[..., 0] = q1_4[..., None]
+    out[..., 1] = q2[..., None]
+    out[..., 2] = q3[..., None]
+    out[..., 3] = q4
+    out[..., 4] = q5
+    out[..., 5] = q6
+    out[~np.repeat(exists, 2, axis=1)] = np.nan
+    return out.reshape(n, 8, 6)
+
+
+def _fit_limits(sol: FloatArray, g: Geometry) -> FloatArray:
+    """Wrap every joint to (-pi, pi], shift by 2 pi into the limits where needed (joints 1, 3,
+    4 and 6 have ranges past +-pi), and NaN the rows that still break a limit (in place).
+
+    Every angle :func:`_branches` produces lies in (-2 pi, 3 pi), so one conditional shift
+    wraps it (cheaper than ``np.remainder`` on millions of angles).
+    """
+    lo = g.lower - LIMIT_SLACK
+    hi = g.upper + LIMIT_SLACK
+    bad = np.zeros(sol.shape[:-1], dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for j in range(6):
+            v = sol[..., j]
+            if j < 3:  # q4, q5, q6 come from atan2, already in (-pi, pi]
+                v[v > math.pi] -= TWO_PI
+                v[v <= -math.pi] += TWO_PI
+            if lo[j] < -math.pi:
+                v[v > hi[j]] -= TWO_PI
+            if hi[j] > math.pi:
+                v[v < lo[j]] += TWO_PI
+            bad |= (v < lo[j]) | (v > hi[j])
+    sol[bad] = np.nan
+    return sol
+
+
+def _dedupe(rows: list[list[float]]) -> FloatArray:
+    """Distinct rows (|difference| > 1e-9 rad somewhere), in the original order."""
+    keep: list[list[float]] = []
+    for r in rows:
+        if not any(max(abs(a - b) for a, b in zip(r, k, strict=True)) < 1e-9 for k in keep):
+            keep.append(r)
+    return np.array(keep, dtype=np.float64).reshape(-1, 6)
+
+
+def inverse(T: npt.ArrayLike) -> FloatArray:
+    """Every inverse-kinematics solution inside the joint limits.
+
+    Args:
+        T: gripper_link pose(s) in the base frame, shape (4, 4) or (N, 4, 4).
+
+    Returns:
+        For one pose: (k, 6) [rad], k = 0 ... 8 distinct solutions in a fixed branch order
+        (shoulder front/back x elbow x wrist flip); k = 0 when the pose is unreachable.
+        For N poses: (N, 8, 6) with NaN rows for branches that do not exist or break a limit.
+
+    Raises:
+        ValueError: On a wrong shape, NaN/inf, or a non-orthonormal rotation.
+    """
+    Ta = _check_pose(T)
+    if Ta.ndim == 2:
+        return np.array(_solutions_scalar(Ta, geometry()), dtype=np.float64).reshape(-1, 6)
+    return _inverse_batch(Ta)
+
+
+# --------------------------------------------------------------------------- scalar path
+def _wrap_into(v: float, lo: float, hi: float) -> float | None:
+    """``v`` wrapped to (-pi, pi] and shifted by 2 pi into [lo, hi]; None if impossible."""
+    if -math.pi < v <= math.pi and lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
+        return v
+    v = math.remainder(v, TWO_PI)
+    if v < lo - LIMIT_SLACK:
+        v += TWO_PI
+    elif v > hi + LIMIT_SLACK:
+        v -= TWO_PI
+    if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
+        return v
+    return None
+
+
+def _solutions_scalar(T: FloatArray, g: Geometry) -> list[list[float]]:
+    """Branches of one pose inside the limits, in the batch path's order (pure ``math``).
+
+    The single-pose path: the same formulas as :func:`_branches` and :func:`_fit_limits`
+    without numpy's per-call overhead (a test checks that both paths agree).
+    """
+    (r00, r01, r02, px), (r10, r11, r12, py), (r20, r21, r22, pz) = T[:3].tolist()
+    wx, wy, wz = px - g.dg * r00, py - g.dg * r10, pz - g.dg * r20
+    base_q1 = math.atan2(wy, wx)
+    rho = math.hypot(wx, wy)
+    zz = wz - g.d0 - g.h1
+    L, phi, a2 = g.forearm, g.forearm_angle, g.a2
+    lo, hi = g.lower_list, g.upper_list
+    out: list[list[float]] = []
+    for shoulder in (1.0, -1.0):
+        q1 = base_q1 if shoulder > 0 else base_q1 + math.pi
+        x = shoulder * rho - g.a1
+        cos_d = (x * x + zz * zz - a2 * a2 - L * L) / (2.0 * a2 * L)
+        if abs(cos_d) > 1.0 + 1e-12:
+            continue
+        cos_d = min(1.0, max(-1.0, cos_d))
+        c1, s1 = math.cos(q1), math.sin(q1)
+        # rows of Rz(q1)^T R
+        t00, t01, t02 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
+        t10, t11 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11
+        q1w = _wrap_into(q1, lo[0], hi[0])
+        elbows = (1.0,) if abs(cos_d) >= 1.0 else (1.0, -1.0)  # one elbow when stretched
+        for elbow in elbows:
+            delta = elbow * math.acos(cos_d)
+            alpha2 = math.atan2(zz, x) - math.atan2(L * math.sin(delta), a2 + L * math.cos(delta))
+            q2 = math.pi / 2.0 - alpha2
+            q3 = -delta - phi - math.pi / 2.0
+            c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
+            m00, m01, m02 = t00 * c23 - r20 * s23, t01 * c23 - r21 * s23, t02 * c23 - r22 * s23
+            m10, m11 = t10, t11
+            m20, m21 = t00 * s23 + r20 * c23, t01 * s23 + r21 * c23
+            s5_abs = math.hypot(m10, m20)
+            q2w = _wrap_into(q2, lo[1], hi[1])
+            q3w = _wrap_into(q3, lo[2], hi[2])
+            if q1w is None or q2w is None or q3w is None:
+                continue
+            singular = s5_abs < WRIST_SINGULAR
+            for flip in (1.0,) if singular else (1.0, -1.0):  # the flips coincide when singular
+                if singular:
+                    q4 = 0.0
+                    q5 = 0.0 if m00 > 0 else math.pi
+                    q6 = math.atan2((1.0 if m00 > 0 else -1.0) * m21, m11)
+                else:
+                    q5 = math.atan2(flip * s5_abs, m00)
+                    q4 = math.atan2(flip * m10, -flip * m20)
+                    q6 = math.atan2(flip * m01, flip * m02)
+                q4w = _wrap_into(q4, lo[3], hi[3])
+                q5w = _wrap_into(q5, lo[4], hi[4])
+                q6w = _wrap_into(q6, lo[5], hi[5])
+                if q4w is not None and q5w is not None and q6w is not None:
+                    out.append([q1w, q2w, q3w, q4w, q5w, q6w])
+    return out
+
+
+# --------------------------------------------------------------------------- nearest
+def _best_twin(value: float, ref: float, lo: float, hi: float) -> float:
+    """The 2 pi twin of ``value`` inside [lo, hi] closest to ``ref``."""
+    best, best_d = value, math.inf
+    k0 = round((ref - value) / TWO_PI)
+    for k in (k0 - 1, k0, k0 + 1):
+        v = value + k * TWO_PI
+        if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK and abs(v - ref) < best_d:
+            best, best_d = v, abs(v - ref)
+    return best
+
+
+def nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
+    """The solution for ``T`` closest to ``q_ref`` (no full-turn jumps).
+
+    Among all branches and all 2 pi twins of joints 1, 4 and 6 inside the limits, returns the one
+    that minimises sum(((q - q_ref) / v_max)^2), i.e. roughly the fastest to reach. At the wrist
+    singularity, q4 stays at ``q_ref[3]``.
+
+    Args:
+        T: gripper_link pose in the base frame, shape (4, 4).
+        q_ref: Reference joint state [rad], shape (6,).
+
+    Returns:
+        Joint positions [rad], shape (6,).
+
+    Raises:
+        ValueError: On invalid input.
+        UnreachablePoseError: When no solution lies inside the limits; the message says by how
+            much the pose is out of reach, or which joint limit excludes it.
+    """
+    Ta = _check_pose(T)
+    if Ta.ndim != 2:
+        raise ValueError(f"nearest takes one pose (4, 4), got {Ta.shape}")
+    ref = np.asarray(q_ref, dtype=np.float64)
+    if ref.shape != (6,):
+        raise ValueError(f"q_ref must have shape (6,), got {ref.shape}")
+    ref_l = ref.tolist()
+    if not all(math.isfinite(v) for v in ref_l):
+        raise ValueError("q_ref contains NaN or inf")
+    g = geometry()
+    lo, hi = g.lower_list, g.upper_list
+    inv_v2 = g.inv_v2_list
+    best: list[float] | None = None
+    best_cost = math.inf
+    for cand in _solutions_scalar(Ta, g):
+        if abs(math.sin(cand[4])) < 1e-7:  # wrist straight: keep q4, move q6 by the same
+            shift = ref_l[3] - cand[3]
+            cand[3] = ref_l[3]
+            cand[5] = cand[5] - shift if math.cos(cand[4]) > 0 else cand[5] + shift
+            if not (lo[5] - LIMIT_SLACK <= cand[5] <= hi[5] + LIMIT_SLACK):
+                w6 = _wrap_into(cand[5], lo[5], hi[5])
+                if w6 is None:
+                    continue
+                cand[5] = w6
+        for j in (0, 3, 5):
+            cand[j] = _best_twin(cand[j], ref_l[j], lo[j], hi[j])
+        cost = 0.0
+        for j in range(6):
+            d = cand[j] - ref_l[j]
+            cost += d * d * inv_v2[j]
+        if cost < best_cost:
+            best, best_cost = cand, cost
+    if best is None:
+        raise UnreachablePoseError(_why_unreachable(Ta))
+    return np.array(best, dtype=np.float64)
+
+
+def _why_unreachable(T: FloatArray) -> str:
+    """A sentence on why a pose has no solution inside the limits."""
+    g = geometry()
+    R = T[:3, :3]
+    w = T[:3, 3] - g.dg * R[:, 0]
+    rho = math.hypot(w[0], w[1])
+    zz = w[2] - g.d0 - g.h1
+    best_gap = math.inf
+    for shoulder in (1.0, -1.0):
+        d = math.hypot(shoulder * rho - g.a1, zz)
+        gap = max(d - g.reach, abs(g.a2 - g.forearm) - d)
+        best_gap = min(best_gap, gap)
+    if best_gap > 0:
+        return (
+            f"out of reach: the wrist centre {np.round(w, 3).tolist()} is {best_gap:.3f} m beyond "
+            f"the arm's {g.reach:.3f} m reach from joint_2"
+        )
+    # For each joint, the smallest excess over its limits among the branches that need it.
+    excess: dict[int, float] = {}
+    for row in _branches(T[None], g)[0]:
+        if np.isnan(row[0]):
+            continue
+        for jnt in range(6):
+            v = _best_twin(math.remainder(float(row[jnt]), TWO_PI), 0.0, g.lower[jnt], g.upper[jnt])
+            over = max(g.lower[jnt] - v, v - g.upper[jnt])
+            if over > LIMIT_SLACK:
+                excess[jnt] = min(excess.get(jnt, math.inf), over)
+    parts = [
+        f"{ARM_JOINTS[jnt]} by >= {math.degrees(e):.1f} deg" for jnt, e in sorted(excess.items())
+    ]
+    return "every solution breaks a joint limit: " + ", ".join(parts)

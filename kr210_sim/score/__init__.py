@@ -1,0 +1,1 @@
+"""What a cycle's observations mean: the outcome and its detail, metrics, and the report schema."""

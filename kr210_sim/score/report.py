@@ -1,0 +1,231 @@
+"""Run reports: the JSON record, the per-cycle line and the summary table.
+
+Reports are written atomically (:mod:`kr210_sim.util.outputs`), so an interrupted write never
+leaves a
+half-written report behind. Fields that depend on the machine
+(wall times, real-time factor) are collected under keys named ``wall_*`` / ``*_wall`` so that
+determinism checks can drop them.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from kr210_sim import __version__
+from kr210_sim.sim.runner import CycleResult, RunConfig
+from kr210_sim.sim.targets import Event
+from kr210_sim.util.interrupts import signal_name
+from kr210_sim.util.outputs import check_writable, write_text_atomic
+
+__all__ = [
+    "WALL_KEYS",
+    "build_report",
+    "check_writable",
+    "cycle_line",
+    "report_json",
+    "strip_wall",
+    "summarise",
+    "summary_table",
+    "versions",
+    "write_json_atomic",
+]
+
+#: Keys whose values depend on the machine or on how the work was spread over processes, not on
+#: the simulation (``execution``: worker count and wall time of an evaluation).
+WALL_KEYS = frozenset(
+    {
+        "wall_time",
+        "wall_time_s",
+        "real_time_factor",
+        "steps_per_second",
+        "execution",
+        "planning_wall_time",
+        "planning_wall_time_s",
+        "planning_cpu_time",
+        "planning_cpu_time_s",
+    }
+)
+
+
+def versions() -> dict[str, str]:
+    """Versions of the package, Python and the libraries that shape the results."""
+    import mujoco
+    import ruckig
+
+    out = {
+        "kr210_sim": __version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "mujoco": mujoco.__version__,
+    }
+    out["ruckig"] = getattr(ruckig, "__version__", "unknown")
+    return out
+
+
+def summarise(results: Sequence[CycleResult], wall_time: float | None = None) -> dict[str, Any]:
+    """Summary figures of a run.
+
+    Args:
+        results: The cycles run so far.
+        wall_time: Wall-clock time of the run [s], if known.
+
+    Returns:
+        cycles, successes, success_rate, failures (reason -> count), cycle-time statistics [s],
+        worst tracking error [deg], worst gripper error [mm], worst creep [mm], robot contacts,
+        simulated time [s], and the wall-time figures.
+    """
+    n = len(results)
+    ok = [r for r in results if r.success]
+    times = np.array([r.cycle_time for r in results]) if n else np.zeros(0)
+    grasped = [r.creep_mm for r in results if r.reason not in ("unreachable", "grasp_missed")]
+    summary: dict[str, Any] = {
+        "cycles": n,
+        "successes": len(ok),
+        "success_rate": (len(ok) / n) if n else 0.0,
+        "failures": dict(sorted(Counter(r.reason for r in results if r.reason).items())),
+        "cycle_time_mean": float(times.mean()) if n else 0.0,
+        "cycle_time_max": float(times.max()) if n else 0.0,
+        "cycle_time_min": float(times.min()) if n else 0.0,
+        "max_tracking_error_deg": max(
+            (max(r.max_tracking_error_deg) for r in results), default=0.0
+        ),
+        "max_gripper_tracking_error_mm": max(
+            (r.max_gripper_tracking_error_mm for r in results), default=0.0
+        ),
+        "max_creep_mm": max(grasped, default=0.0),
+        "env_contact_ticks": sum(r.env_contact_ticks for r in results),
+        "grasp_retries": sum(max(r.grasp_attempts - 1, 0) for r in results),
+        "sim_time": float(times.sum()) if n else 0.0,
+        "detours": sum(r.detours for r in results),
+    }
+    if n:
+        plan = np.array([r.planning_wall_time for r in results])
+        summary["planning_wall_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
+        cpu = np.array([r.planning_cpu_time for r in results])
+        summary["planning_cpu_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
+    if wall_time is not None:
+        summary["wall_time_s"] = wall_time
+        summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
+    return summary
+
+
+def _jsonable(obj: Any) -> Any:
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return _jsonable(asdict(obj))
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def build_report(
+    config: RunConfig,
+    results: Sequence[CycleResult],
+    wall_time: float | None,
+    interrupted: BaseException | bool | None = None,
+    events: Sequence[Event] = (),
+    cell: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The JSON-ready report of a run.
+
+    Args:
+        config: The run's settings.
+        results: The cycles that finished.
+        wall_time: Wall-clock time of the run [s], if known.
+        interrupted: The interrupt that stopped the run (or True), None/False when it ran to
+            the end.
+        events: What was done to the cylinders between cycles (bin emptied, shelf cleared).
+        cell: The simulated cell (:meth:`kr210_sim.cell.layout.CellLayout.describe`).
+
+    Returns:
+        config, the cell, per-cycle records, events, summary, ``interrupted`` (bool) and
+        ``interrupted_by`` (the signal's name or null), versions.
+    """
+    return {
+        "kind": "kr210_sim.run",
+        "config": _jsonable(config),
+        "cell": _jsonable(cell),
+        "cycles": [_jsonable(r.to_dict()) for r in results],
+        "events": [e.to_dict() for e in events],
+        "summary": summarise(results, wall_time),
+        "interrupted": bool(interrupted),
+        "interrupted_by": signal_name(interrupted if interrupted is not True else None)
+        if interrupted
+        else None,
+        "versions": versions(),
+    }
+
+
+def report_json(payload: dict[str, Any]) -> str:
+    """The text a report file holds: JSON with sorted keys, 2-space indent, a final newline."""
+    return json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
+    """Write ``payload`` as JSON (:func:`report_json`) to ``path`` atomically (see
+    :mod:`kr210_sim.util.outputs` for links, devices and file modes)."""
+    return write_text_atomic(path, report_json(payload))
+
+
+def strip_wall(obj: Any) -> Any:
+    """A copy of a report with every machine-dependent (wall-time) field removed."""
+    if isinstance(obj, dict):
+        return {k: strip_wall(v) for k, v in obj.items() if k not in WALL_KEYS}
+    if isinstance(obj, list):
+        return [strip_wall(v) for v in obj]
+    return obj
+
+
+def cycle_line(r: CycleResult, total: int) -> str:
+    """One line per cycle: number, slot, result, cycle time, tracking error, creep."""
+    width = len(str(total))
+    result = "ok  " if r.success else f"FAIL {r.reason}"
+    retry = f"  retries {r.grasp_attempts - 1}" if r.grasp_attempts > 1 else ""
+    return (
+        f"[{r.index:>{width}}/{total}] slot {r.slot}  {result:<24} "
+        f"cycle {r.cycle_time:5.2f} s  track {max(r.max_tracking_error_deg):5.3f} deg  "
+        f"creep {r.creep_mm:5.2f} mm{retry}"
+        + (f"  ({r.detail})" if r.detail and not r.success else "")
+    )
+
+
+def summary_table(summary: dict[str, Any]) -> str:
+    """A small plain-text summary table."""
+    rows = [
+        ("cycles", f"{summary['cycles']}"),
+        ("successes", f"{summary['successes']} ({100 * summary['success_rate']:.0f} %)"),
+        ("failures", ", ".join(f"{k} {v}" for k, v in summary["failures"].items()) or "none"),
+        (
+            "cycle time mean / max",
+            f"{summary['cycle_time_mean']:.2f} / {summary['cycle_time_max']:.2f} s",
+        ),
+        ("worst joint tracking error", f"{summary['max_tracking_error_deg']:.3f} deg"),
+        (
+            "worst tracking error at gripper",
+            f"{summary['max_gripper_tracking_error_mm']:.2f} mm",
+        ),
+        ("worst creep in the grip", f"{summary['max_creep_mm']:.2f} mm"),
+        ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
+    ]
+    if "wall_time_s" in summary:
+        rows.append(
+            (
+                "wall time",
+                f"{summary['wall_time_s']:.2f} s ({summary['real_time_factor']:.0f}x real time)",
+            )
+        )
+    w = max(len(k) for k, _ in rows)
+    return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)

@@ -1,0 +1,581 @@
+"""The runner: executes and scores pick-and-place cycles in the simulated cell.
+
+Data flow per cycle: spawn a fresh cylinder (config + seeded generator) -> observe its pose ->
+plan (:mod:`kr210_sim.plan.planner`) -> execute (:mod:`kr210_sim.sim.cell`) -> monitor -> score
+(:mod:`kr210_sim.score.scoring`) -> :class:`CycleResult`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.spec import MotionConfig, TargetSpec
+from kr210_sim.errors import (
+    ConfigError,
+    IkFailedError,
+    NoPathError,
+    PlanningError,
+    UnreachablePoseError,
+)
+from kr210_sim.plan.collide import CollisionChecker
+from kr210_sim.plan.planner import Move, Planner
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import RobotDescription, load_robot
+from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.score.metrics import gripper_tracking_error_mm
+from kr210_sim.score.scoring import (
+    TOPPLED_TILT_DEG,
+    CycleObservation,
+    Outcome,
+    in_bin,
+    is_still,
+    rest_window_ticks,
+    score,
+)
+from kr210_sim.sim.cell import Cell, Recording, hold
+from kr210_sim.sim.targets import Event, TargetPool
+
+import mujoco  # isort: skip
+
+log = logging.getLogger(__name__)
+FloatArray = npt.NDArray[np.float64]
+
+#: Time a freshly spawned target is left to settle before it is observed [s].
+SPAWN_SETTLE = 0.1
+#: Longest wait for a released target to come to rest (see :func:`kr210_sim.score.scoring.is_still`)
+#: [s].
+SETTLE_TIMEOUT = 4.0
+#: Most cycles one run takes (about 12 h of simulated time, 15 min of wall time); use
+#: ``evaluate`` for more.
+MAX_CYCLES = 10_000
+#: Finger speed below which a closing grip counts as settled [m/s].
+GRIP_SETTLED_SPEED = 0.005
+#: Largest mismatch between the finger gap and the target diameter for a confirmed grip [m].
+GRIP_GAP_TOLERANCE = 0.006
+#: Displacement of the target relative to the gripper that counts as lost [m].
+LOST_DISTANCE = 0.03
+#: Simulated time the arm waits while an event between cycles is shown [s].
+EVENT_SHOW = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class RunConfig:
+    """Settings of a run.
+
+    Attributes:
+        cycles: Number of pick-and-place cycles.
+        seed: Seed of the run's random generator.
+        slot: Slot 1..rows x columns of the cell, or 0 for a random slot per cycle.
+        randomize: Randomise the target per cycle (see :class:`RandomizationSpec`).
+        grasp_attempts: Attempts at a grasp before the cycle is scored ``grasp_missed``.
+        motion: Motion settings.
+
+    The cell (layout, target, randomisation ranges) is the simulated model's
+    (:class:`~kr210_sim.cell.layout.CellLayout`), not a setting.
+    """
+
+    cycles: int = 10
+    seed: int = 0
+    slot: int = 0
+    randomize: bool = False
+    grasp_attempts: int = 2
+    motion: MotionConfig = field(default_factory=MotionConfig)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.cycles, int) or not 1 <= self.cycles <= MAX_CYCLES:
+            raise ConfigError(
+                f"cycles must be a whole number from 1 to {MAX_CYCLES}, got {self.cycles!r} "
+                "(use evaluate for more)"
+            )
+        if not isinstance(self.slot, int) or self.slot < 0:
+            raise ConfigError(f"slot must be 0 (random) or a slot number, got {self.slot!r}")
+        if self.grasp_attempts < 1:
+            raise ConfigError(f"grasp_attempts must be >= 1, got {self.grasp_attempts!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class TargetSample:
+    """One cycle's target: where it spawns and what it is.
+
+    Attributes:
+        slot: Slot number (1-based).
+        position: Spawn position of the centre [m].
+        yaw: Spawn yaw [rad].
+        spec: Size, mass and friction.
+    """
+
+    slot: int
+    position: tuple[float, float, float]
+    yaw: float
+    spec: TargetSpec
+
+
+@dataclass(frozen=True, slots=True)
+class CycleResult:
+    """What one cycle did and how it scored.
+
+    Attributes:
+        index: Cycle number (1-based).
+        slot: Slot 1-9.
+        success: True when the target rests in the bin.
+        reason: Failure reason (an :class:`Outcome` value), None on success.
+        detail: One sentence on what went wrong (empty on success).
+        cycle_time: Simulated time from the first move to the end of the return move [s].
+        max_tracking_error_deg: Largest |q_des - q| per joint over the cycle [deg].
+        max_gripper_tracking_error_mm: The joint tracking error seen at the gripper: largest
+            distance between gripper_link at the measured joints and at the commanded joints
+            (forward kinematics of both) [mm]. Not an IK error: the plan's poses are exact.
+        creep_mm: Largest displacement of the target relative to the gripper between the
+            confirmed grip and the release [mm].
+        grasp_attempts: Grasp attempts made.
+        env_contact_ticks: Control ticks with robot-shelf or robot-bin contact.
+        contact_pairs: Names of robot/environment geom pairs that touched.
+        target: The target's spawn sample.
+        target_final: The target's final centre [m].
+        phase_times: Simulated duration of each phase [s].
+        detours: Moves planned through via points to keep clear of the cell.
+        wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
+        planning_wall_time: Wall-clock time spent planning the cycle's moves, collision checks
+            and detours included [s] (excluded from determinism checks).
+        planning_cpu_time: CPU time of that planning [s] (on a loaded machine the wall time
+            also counts the waits for a core; excluded from determinism checks).
+    """
+
+    index: int
+    slot: int
+    success: bool
+    reason: str | None
+    detail: str
+    cycle_time: float
+    max_tracking_error_deg: tuple[float, ...]
+    max_gripper_tracking_error_mm: float
+    creep_mm: float
+    grasp_attempts: int
+    env_contact_ticks: int
+    contact_pairs: tuple[tuple[str, str], ...]
+    target: TargetSample
+    target_final: tuple[float, float, float]
+    phase_times: dict[str, float]
+    detours: int
+    wall_time: float
+    planning_wall_time: float
+    planning_cpu_time: float
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready dictionary."""
+        d = asdict(self)
+        d["target"]["spec"] = asdict(self.target.spec)
+        return d
+
+
+def sample_target(
+    rng: np.random.Generator, config: RunConfig, layout: CellLayout, cycle_slot: int
+) -> TargetSample:
+    """Draw one cycle's target from the run's generator.
+
+    The nominal target sits upright on its board at the slot centre; with ``randomize`` its
+    position, yaw, size, mass and friction are drawn from the cell's randomisation ranges.
+    """
+    r = layout.randomization
+    centre = layout.slots[cycle_slot - 1]
+    board_top = float(centre[2])
+    spec = layout.target
+    yaw = 0.0
+    offset = np.zeros(2)
+    if config.randomize:
+        offset = rng.uniform(-r.xy_offset, r.xy_offset, size=2)
+        yaw = float(rng.uniform(*r.yaw))
+        spec = TargetSpec(
+            radius=float(rng.uniform(*r.radius)),
+            length=float(rng.uniform(*r.length)),
+            mass=float(rng.uniform(*r.mass)),
+            friction=float(rng.uniform(*r.friction)),
+        )
+    position = (
+        float(centre[0] + offset[0]),
+        float(centre[1] + offset[1]),
+        float(board_top + spec.length / 2.0),
+    )
+    return TargetSample(cycle_slot, position, yaw, spec)
+
+
+class Runner:
+    """Runs cycles in one simulated cell; the cell persists across cycles (the bin fills up).
+
+    Args:
+        config: Run settings.
+        model: A compiled cell model (default: the committed scene).
+        robot: The robot description (default: the committed URDF).
+        keep_recordings: Keep every cycle's per-tick :class:`Recording` in :attr:`recordings`
+            (for plots; about 0.9 MB a cycle). Without it memory stays flat however many cycles
+            run.
+        ik: A user's IK function to plan with (default: our closed form); a cycle whose plan
+            meets an unusable answer is scored ``ik_failed``.
+    """
+
+    def __init__(
+        self,
+        config: RunConfig,
+        model: mujoco.MjModel | None = None,
+        robot: RobotDescription | None = None,
+        keep_recordings: bool = False,
+        ik: UserIk | None = None,
+    ) -> None:
+        self.config = config
+        self.robot = robot or load_robot()
+        self.model = model if model is not None else load_model()
+        self.layout = CellLayout.from_model(self.model)
+        if config.slot > self.layout.n_slots:
+            raise ConfigError(
+                f"slot must be 0 (random) or 1-{self.layout.n_slots} in cell "
+                f"{self.layout.name!r}, got {config.slot}"
+            )
+        self.cell = Cell(self.model)
+        self.planner = Planner(self.robot, config.motion, ik, CollisionChecker(self.model))
+        self.planner.check_ready()
+        self.rng = np.random.default_rng(config.seed)
+        self.cell.reset(self.planner.ready_q)
+        self.q_cmd = self.planner.ready_q.copy()
+        self.results: list[CycleResult] = []
+        self.keep_recordings = keep_recordings
+        self.recordings: list[Recording] = []
+        self.targets = TargetPool(self.cell, self.layout)
+        self.status: dict[str, object] = {
+            "cycle": 0,
+            "cycles": config.cycles,
+            "slot": 0,
+            "done": 0,
+            "successes": 0,
+            "phase": "idle",
+            "event": "",
+        }
+        #: Called with the phase name before every motion or hold segment runs (a viewer's
+        #: demo mode blocks in it until the user presses Next); it must not touch the cell.
+        self.on_phase: Callable[[str], None] | None = None
+
+    # -- one cycle -----------------------------------------------------------------------
+    @property
+    def events(self) -> list[Event]:
+        """What was done to the cylinders between cycles (bin emptied, shelf cleared)."""
+        return self.targets.events
+
+    def _spawn(self, sample: TargetSample) -> int:
+        """Place a spare target at the sample's pose; return its index. When no spare is left,
+        the bin is emptied first: an event, shown for :data:`EVENT_SHOW` s of simulated time."""
+        if not self.targets.spare:
+            self._show(self.targets.restock(int(self.status["cycle"])))  # type: ignore[call-overload]
+        return self.targets.spawn(sample.position, sample.yaw, sample.spec)
+
+    def _show(self, event: Event) -> None:
+        """Hold the arm still while the overlay names ``event`` (the video shows it)."""
+        log.info("before cycle %d: %s", event.before_cycle, event.detail)
+        phase = self.status["phase"]
+        self.status.update(phase=event.kind.value, event=event.detail)
+        self.cell.track(hold(self.q_cmd, EVENT_SHOW), None, event.kind.value)
+        self.status.update(phase=phase, event="")
+
+    def observe_target(self, index: int) -> FloatArray:
+        """The target's position [m] as the planner perceives it (the simulator's pose: a
+        perfect sensor; subclasses may model perception error)."""
+        return self.cell.target_pose(index)[0]
+
+    def target_tilt_deg(self, index: int) -> float:
+        """Angle of target ``index``'s axis from the vertical [deg]."""
+        _, R = self.cell.target_pose(index)
+        return float(np.degrees(np.arccos(np.clip(abs(R[2, 2]), 0.0, 1.0))))
+
+    def _enter(self, phase: str) -> None:
+        self.status["phase"] = phase
+        if self.on_phase is not None:
+            self.on_phase(phase)
+
+    def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
+        self._enter(move.phase)
+        dt = self.cell.track(move.trajectory, rec, move.phase)
+        phases[move.phase] = phases.get(move.phase, 0.0) + dt
+        self.q_cmd = move.q_end
+
+    def _hold(
+        self,
+        seconds: float,
+        rec: Recording,
+        phase: str,
+        phases: dict[str, float],
+        until: Callable[[Cell], bool] | None = None,
+    ) -> float:
+        self._enter(phase)
+        dt = self.cell.track(hold(self.q_cmd, seconds), rec, phase, until=until)
+        phases[phase] = phases.get(phase, 0.0) + dt
+        return dt
+
+    def _grip_confirmed(self, radius: float) -> bool:
+        cell = self.cell
+        right, left = cell.finger_target_contacts()
+        gap = self.robot.finger_gap(cell.finger_q)
+        return right and left and abs(gap - 2.0 * radius) < GRIP_GAP_TOLERANCE
+
+    def _close(self, radius: float, rec: Recording, phases: dict[str, float]) -> bool:
+        """Close the gripper until the grip is confirmed or the timeout passes."""
+        cell = self.cell
+        cell.close_gripper()
+        settled = 0
+
+        def done(c: Cell) -> bool:
+            nonlocal settled
+            settled = settled + 1 if abs(c.finger_qd) < GRIP_SETTLED_SPEED else 0
+            return settled >= 5 and self._grip_confirmed(radius)
+
+        self._hold(self.config.motion.close_timeout, rec, "grasp", phases, until=done)
+        return self._grip_confirmed(radius)
+
+    def run_cycle(self, index: int, slot: int) -> CycleResult:
+        """Run and score one cycle.
+
+        Args:
+            index: Cycle number (1-based).
+            slot: Slot number (1-based).
+        """
+        wall0 = time.perf_counter()
+        cfg, cell = self.config, self.cell
+        sample = sample_target(self.rng, cfg, self.layout, slot)
+        self.status.update(cycle=index, slot=slot, phase="spawn")
+        k = self._spawn(sample)
+        rec = Recording()
+        phases: dict[str, float] = {}
+        self._hold(SPAWN_SETTLE, rec, "spawn", phases)
+        t_start = cell.time
+        planned, confirmed, held, released, toppled = True, False, False, False, False
+        ik_failed = no_path = False
+        planning = planning_cpu = 0.0
+        detours0 = self.planner.detours
+        attempts = 0
+        detail = ""
+        grip_ref: FloatArray | None = None
+        i_grip = i_release = -1
+        try:
+            while attempts < cfg.grasp_attempts and not confirmed:
+                attempts += 1
+                position = self.observe_target(k)
+                # The whole cycle is planned (and collision-checked) before the arm moves.
+                t_plan, c_plan = time.perf_counter(), time.process_time()
+                radius, length = sample.spec.radius, sample.spec.length
+                plan = self.planner.plan_grasp(self.q_cmd, position, radius, length)
+                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
+                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
+                carry = self.planner.plan_carry(plan.retreat.q_end, drop, radius, length)
+                self.planner.plan_return(carry.q_end)
+                planning += time.perf_counter() - t_plan
+                planning_cpu += time.process_time() - c_plan
+                self._track(plan.approach_ptp, rec, phases)
+                self._track(plan.approach_lin, rec, phases)
+                confirmed = self._close(sample.spec.radius, rec, phases)
+                if not confirmed:
+                    detail = (
+                        f"grip not confirmed on attempt {attempts}: finger gap "
+                        f"{self.robot.finger_gap(cell.finger_q) * 1000:.1f} mm, target "
+                        f"diameter {2000 * sample.spec.radius:.1f} mm"
+                    )
+                    log.info("cycle %d: %s", index, detail)
+                    cell.open_gripper()
+                    self._hold(0.3, rec, "grasp", phases)
+                    back = self.planner.lin(
+                        "retreat", self.q_cmd, kinematics.forward(plan.approach_ptp.q_end)
+                    )
+                    self._track(back, rec, phases)
+                    tilt = self.target_tilt_deg(k)
+                    if tilt > TOPPLED_TILT_DEG:  # no upright cylinder left to re-plan for
+                        toppled = True
+                        detail = (
+                            f"the target was knocked over in slot {slot} (axis {tilt:.0f} deg "
+                            f"from vertical) on attempt {attempts}; {detail}"
+                        )
+                        break
+                    continue
+                grip_ref = cell.target_in_gripper()
+                i_grip = len(rec)
+                self._track(plan.lift, rec, phases)
+                self._track(plan.retreat, rec, phases)
+            if confirmed:
+                self._track(carry, rec, phases)
+                assert grip_ref is not None
+                held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
+                i_release = len(rec)
+                cell.open_gripper()
+                released = True
+                self._hold(cfg.motion.release_wait, rec, "release", phases)
+            self._track(self.planner.plan_return(self.q_cmd), rec, phases)
+        except (UnreachablePoseError, PlanningError) as exc:
+            planned = False  # scored "unreachable": no plan within the limits exists
+            ik_failed = isinstance(exc, IkFailedError)  # scored "ik_failed": the user's IK
+            no_path = isinstance(exc, NoPathError)  # scored "no_path": every plan collides
+            detail = str(exc)
+            log.info("cycle %d: %s", index, detail)
+            if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
+                try:
+                    self._track(self.planner.plan_return(self.q_cmd), rec, phases)
+                except PlanningError as back_exc:  # pragma: no cover - defensive
+                    log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
+            if confirmed and not released:  # do not start the next cycle holding this target
+                cell.open_gripper()
+        cycle_time = cell.time - t_start
+        self.status["phase"] = "settle"
+        still = 0
+        window = rest_window_ticks(self.model.opt.timestep)
+
+        def at_rest(c: Cell) -> bool:
+            nonlocal still
+            still = still + 1 if is_still(c.target_speed(), c.target_spin()) else 0
+            return still >= window
+
+        self._hold(SETTLE_TIMEOUT, rec, "settle", phases, until=at_rest)
+        obs = CycleObservation(
+            planned=planned,
+            grasp_confirmed=confirmed,
+            held_until_release=held,
+            released=released,
+            robot_env_contacts=int(sum(int(seg["env_contact"].sum()) for seg in rec.segments)),
+            target_position=cell.target_pose(k)[0],
+            target_speed=cell.target_speed(k),
+            target_spin=cell.target_spin(k),
+            rested_for=still * float(self.model.opt.timestep),
+            target_toppled=toppled
+            or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
+        )
+        outcome = (
+            Outcome.IK_FAILED
+            if ik_failed
+            else Outcome.NO_PATH
+            if no_path
+            else score(obs, self.layout.bin)
+        )
+        if outcome is Outcome.SUCCESS:
+            detail = ""
+        elif not detail:
+            detail = _describe(outcome, obs, rec, self.layout)
+        result = self._summarise(
+            index,
+            sample,
+            outcome,
+            detail,
+            rec,
+            cycle_time,
+            attempts,
+            grip_ref,
+            i_grip,
+            i_release,
+            phases,
+            wall0,
+            obs,
+        )
+        result = dataclasses.replace(
+            result,
+            detours=self.planner.detours - detours0,
+            planning_wall_time=planning,
+            planning_cpu_time=planning_cpu,
+        )
+        self.results.append(result)
+        if self.keep_recordings:
+            self.recordings.append(rec)
+        self.status["done"] = len(self.results)
+        self.status["successes"] = sum(r.success for r in self.results)
+        self._clear_shelf(k, index)
+        return result
+
+    def _clear_shelf(self, k: int, index: int) -> None:
+        """Take a target left on the shelf after failed cycle ``index`` off it (an event), so the
+        slot is free again."""
+        pos, _ = self.cell.target_pose(k)
+        local = self.layout.shelf.local(pos)
+        half = self.layout.shelf.half
+        bottom = float(self.layout.slots[:, 2].min())
+        near = abs(local[0]) < half[0] + 0.2 and abs(local[1]) < half[1] + 0.2
+        if near and pos[2] > bottom - 0.1:
+            self._show(self.targets.clear(k, index + 1, f"left there by failed cycle {index}"))
+
+    def _summarise(
+        self,
+        index: int,
+        sample: TargetSample,
+        outcome: Outcome,
+        detail: str,
+        rec: Recording,
+        cycle_time: float,
+        attempts: int,
+        grip_ref: FloatArray | None,
+        i_grip: int,
+        i_release: int,
+        phases: dict[str, float],
+        wall0: float,
+        obs: CycleObservation,
+    ) -> CycleResult:
+        arr = rec.arrays()
+        track_deg = np.degrees(np.abs(arr["q"] - arr["q_des"]).max(axis=0))
+        grip_err = gripper_tracking_error_mm(arr["q"], arr["q_des"]).max(initial=0.0)
+        creep = 0.0
+        if grip_ref is not None and i_grip >= 0:
+            end = i_release if i_release > i_grip else len(arr["t"])
+            seg = arr["target_in_gripper"][i_grip:end]
+            if len(seg):
+                creep = float(np.linalg.norm(seg - grip_ref, axis=1).max() * 1000.0)
+        return CycleResult(
+            index=index,
+            slot=sample.slot,
+            success=outcome is Outcome.SUCCESS,
+            reason=None if outcome is Outcome.SUCCESS else outcome.value,
+            detail=detail,
+            cycle_time=round(float(cycle_time), 6),
+            max_tracking_error_deg=tuple(round(float(x), 6) for x in track_deg),
+            max_gripper_tracking_error_mm=round(float(grip_err), 6),
+            creep_mm=round(creep, 6),
+            grasp_attempts=attempts,
+            env_contact_ticks=obs.robot_env_contacts,
+            contact_pairs=tuple(sorted(rec.contact_pairs)),
+            target=sample,
+            target_final=tuple(round(float(x), 6) for x in obs.target_position),  # type: ignore[arg-type]
+            phase_times={k: round(v, 6) for k, v in phases.items()},
+            detours=0,
+            wall_time=time.perf_counter() - wall0,
+            planning_wall_time=0.0,
+            planning_cpu_time=0.0,
+        )
+
+    def idle(self, seconds: float, phase: str = "done") -> None:
+        """Hold the arm where it is for ``seconds`` [s] of simulated time (nothing recorded)."""
+        self.status["phase"] = phase
+        self.cell.track(hold(self.q_cmd, seconds), None, phase)
+
+    def slot_for_cycle(self) -> int:
+        """The slot of the next cycle: fixed, or drawn from the run's generator."""
+        if self.config.slot:
+            return self.config.slot
+        return int(self.rng.integers(1, self.layout.n_slots + 1))
+
+
+def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellLayout) -> str:
+    """One sentence on why a cycle failed."""
+    p = np.round(obs.target_position, 3).tolist()
+    if outcome is Outcome.COLLISION:
+        pairs = ", ".join(f"{a}/{b}" for a, b in sorted(rec.contact_pairs)[:3])
+        return f"robot touched the cell for {obs.robot_env_contacts} ticks ({pairs})"
+    if outcome is Outcome.KNOCKED_OVER:
+        return f"the grip failed and the target was left tipped over at {p}"
+    if outcome is Outcome.GRASP_MISSED:
+        return "the grip was never confirmed"
+    if outcome is Outcome.DROPPED_IN_TRANSIT:
+        return f"the target left the fingers before the release; it lies at {p}"
+    if outcome is Outcome.MISSED_BIN:
+        where = "inside" if in_bin(obs.target_position, cell.bin) else "outside"
+        return (
+            f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
+            f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
+        )
+    return outcome.value

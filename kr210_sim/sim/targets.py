@@ -1,0 +1,163 @@
+"""The cell's target cylinders: spares waiting off to the side, one in play, the rest where
+their cycles left them.
+
+A run takes a fresh spare for every cycle. No cylinder moves unless the run says so: when no
+spare is left, the operator empties the bin and picks up the cylinders that fell elsewhere
+(:meth:`TargetPool.restock`), and a cylinder knocked over on the shelf is cleared off it
+(:meth:`TargetPool.clear`). Each is an :class:`Event` that the report records and the video
+shows; the cylinders never leave the bin unseen.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.layout import BinBox, CellLayout
+from kr210_sim.cell.spec import TargetSpec
+from kr210_sim.score.scoring import in_bin
+from kr210_sim.sim.cell import Cell
+
+import mujoco  # isort: skip
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class EventKind(StrEnum):
+    """Things the cell does to its cylinders between cycles."""
+
+    BIN_EMPTIED = "bin_emptied"
+    SHELF_CLEARED = "shelf_cleared"
+
+
+@dataclass(frozen=True, slots=True)
+class Event:
+    """One thing done to the cylinders outside a pick-and-place cycle.
+
+    Attributes:
+        kind: What was done.
+        before_cycle: The cycle it happened before (1-based; cycles + 1 for after the last).
+        time: Simulated time [s].
+        targets: Indices of the cylinders moved.
+        detail: One sentence for the report and the video.
+    """
+
+    kind: EventKind
+    before_cycle: int
+    time: float
+    targets: tuple[int, ...]
+    detail: str
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready dictionary."""
+        return {
+            "kind": self.kind.value,
+            "before_cycle": self.before_cycle,
+            "time": round(self.time, 6),
+            "targets": list(self.targets),
+            "detail": self.detail,
+        }
+
+
+def set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetSpec) -> None:
+    """Give target ``index`` the size, mass and friction of ``spec`` (model fields)."""
+    h = cell.handles
+    g, b = int(h.target_geoms[index]), int(h.target_bodies[index])
+    r, half = spec.radius, spec.length / 2.0
+    model.geom_size[g, :2] = (r, half)
+    model.geom_rbound[g] = math.hypot(r, half)
+    model.geom_aabb[g] = (0, 0, 0, r, r, half)
+    model.geom_friction[g, 0] = spec.friction
+    model.body_mass[b] = spec.mass
+    ixx = spec.mass * (3 * r * r + spec.length**2) / 12.0
+    model.body_inertia[b] = (ixx, ixx, spec.mass * r * r / 2.0)
+    # Recompute the derived constants (inverse weights the constraint solver scales by) on a
+    # scratch MjData, so the live state is untouched.
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
+class TargetPool:
+    """Which cylinder is spare, which is in play; spawning, clearing and restocking.
+
+    Args:
+        cell: The simulated cell (its model holds the cylinders ``target_0`` ...).
+        layout: The cell's layout as the model holds it (where spares are parked, the bin).
+    """
+
+    def __init__(self, cell: Cell, layout: CellLayout) -> None:
+        self.cell = cell
+        self.layout = layout
+        self.spare = list(range(len(cell.handles.target_bodies)))
+        self.in_play: list[int] = []
+        self.events: list[Event] = []
+
+    @property
+    def bin(self) -> BinBox:
+        """The bin's inside."""
+        return self.layout.bin
+
+    def in_bin_count(self) -> int:
+        """Cylinders lying in the bin now."""
+        return sum(in_bin(self.cell.target_pose(k)[0], self.bin) for k in self.in_play)
+
+    def _place(self, k: int, position: npt.ArrayLike, yaw: float = 0.0) -> None:
+        """Put cylinder ``k`` upright at ``position`` [m], at rest (no step taken)."""
+        h, d = self.cell.handles, self.cell.data
+        a, dof = int(h.target_qpos[k]), int(h.target_dof[k])
+        d.qpos[a : a + 3] = np.asarray(position, dtype=np.float64)
+        d.qpos[a + 3 : a + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        d.qvel[dof : dof + 6] = 0.0
+
+    def restock(self, before_cycle: int) -> Event:
+        """Empty the bin and pick up every cylinder in play: all become spares again, parked."""
+        moved = tuple(self.in_play)
+        in_bin_n = self.in_bin_count()
+        for k in moved:
+            self._place(k, self.layout.park[k])
+        mujoco.mj_forward(self.cell.model, self.cell.data)
+        self.spare = sorted(self.spare + list(moved))
+        self.in_play = []
+        elsewhere = len(moved) - in_bin_n
+        detail = f"the bin was emptied ({in_bin_n} cylinders)" + (
+            f" and {elsewhere} cylinders outside it were picked up" if elsewhere else ""
+        )
+        event = Event(EventKind.BIN_EMPTIED, before_cycle, self.cell.time, moved, detail)
+        self.events.append(event)
+        return event
+
+    def spawn(self, position: npt.ArrayLike, yaw: float, spec: TargetSpec) -> int:
+        """Put the first spare cylinder, made to ``spec``, upright at ``position`` [m] with
+        ``yaw`` [rad]; it becomes the cell's active target.
+
+        Returns:
+            The cylinder's index.
+
+        Raises:
+            IndexError: When no spare is left (:meth:`restock` first).
+        """
+        k = self.spare.pop(0)
+        self.in_play.append(k)
+        set_target_spec(self.cell.model, self.cell, k, spec)
+        self._place(k, position, yaw)
+        self.cell.active_target = k
+        mujoco.mj_forward(self.cell.model, self.cell.data)
+        return k
+
+    def clear(self, k: int, before_cycle: int, reason: str) -> Event:
+        """Take cylinder ``k`` off the shelf to its parking spot (it stays out of play until the
+        next restock), as an event."""
+        self._place(k, self.layout.park[k])
+        mujoco.mj_forward(self.cell.model, self.cell.data)
+        event = Event(
+            EventKind.SHELF_CLEARED,
+            before_cycle,
+            self.cell.time,
+            (k,),
+            f"cylinder {k} was taken off the shelf ({reason})",
+        )
+        self.events.append(event)
+        return event

@@ -1,0 +1,2 @@
+"""Plumbing every command shares: where files live, atomic outputs, the console, signals, progress
+lines."""

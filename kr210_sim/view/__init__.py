@@ -1,0 +1,1 @@
+"""The live web viewer: MuJoCo Studio glue and the live cycle loop."""

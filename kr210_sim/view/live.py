@@ -1,0 +1,495 @@
+"""The ``view`` command: run the cycles live in MuJoCo Studio, or pose the arm with sliders.
+
+Task mode drives the same loop as :func:`kr210_sim.jobs.run_job` (one :class:`Runner`, cycles in
+order, the report built by :func:`kr210_sim.score.report.build_report` and written atomically), so
+the
+report equals that of ``run`` with the same options apart from the ``wall_*`` fields. Watching adds
+two things that never touch the physics:
+
+- :class:`Pacer`, a step hook that publishes the state to the viewer about ``fps`` times a wall
+  second and sleeps so simulated time runs at ``speed`` times real time;
+- :class:`DemoGate`, the runner's ``on_phase`` callback: in demo mode it holds the simulation
+  before every phase (approach, grasp, lift, retreat, carry, release, return) until Next.
+
+Joint mode (:func:`run_joints`) has no task: the arm takes the pose of the panel's six sliders
+and the panel shows the gripper pose from :func:`kr210_sim.robot.kinematics.forward` and how many
+inverse-kinematics solutions that pose has.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.toml import model_for
+from kr210_sim.errors import ConfigError
+from kr210_sim.jobs import check_outputs, run_cycles, runner_report
+from kr210_sim.media.video import overlay_lines
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.score.report import write_json_atomic
+from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.util.interrupts import exit_code, signal_name
+from kr210_sim.view.studio import LiveViewer, ViewerClosed, ViewerSettings
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Phases demo mode stops before (the runner's phase names, in cycle order).
+DEMO_PHASES = ("approach", "grasp", "lift", "retreat", "carry", "release", "return")
+#: Viewer updates per wall second.
+DEFAULT_FPS = 60.0
+#: Falling further behind real time than this [s] resets the pace instead of racing to catch up.
+MAX_LAG = 0.25
+#: Refresh period of the viewer while waiting (demo, finished run, joint mode) [s].
+IDLE_PERIOD = 1.0 / 30.0
+
+
+@dataclass(frozen=True, slots=True)
+class LiveSettings:
+    """Pace of a live run.
+
+    Attributes:
+        speed: Simulated seconds per wall second (1 = real time).
+        fps: Viewer updates per wall second.
+        exit_when_done: Return when the cycles are done instead of showing the final state
+            until Ctrl-C.
+    """
+
+    speed: float = 1.0
+    fps: float = DEFAULT_FPS
+    exit_when_done: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.speed) and self.speed > 0):
+            raise ConfigError(f"speed must be a positive number, got {self.speed!r}")
+        if not (math.isfinite(self.fps) and self.fps > 0):
+            raise ConfigError(f"fps must be a positive number, got {self.fps!r}")
+
+
+class Pacer:
+    """Step hook: publish to the viewer ``fps`` times a wall second, hold ``speed`` x real time.
+
+    Called after every physics step; between frames it returns at once (one comparison), so
+    the physics runs at full speed in bursts and sleeps the rest of each frame.
+
+    Args:
+        publish: Shows the current state (called once a frame).
+        speed: Simulated seconds per wall second.
+        fps: Frames per wall second.
+        clock: Wall clock [s].
+        sleep: Sleeps for [s].
+    """
+
+    def __init__(
+        self,
+        publish: Callable[[Cell], None],
+        speed: float,
+        fps: float = DEFAULT_FPS,
+        clock: Callable[[], float] = time.perf_counter,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        self.publish = publish
+        self.speed = float(speed)
+        self.frame_sim = self.speed / float(fps)
+        self.clock, self.sleep = clock, sleep
+        self._next = -math.inf
+        self._sim0: float | None = None
+        self._wall0 = self._last_sim = self._last_wall = 0.0
+        self.sim_paced = 0.0  # simulated time run under the pace [s]
+        self.wall_paced = 0.0  # wall time it took [s]
+        self.frames = 0
+
+    def restart(self) -> None:
+        """Forget the pace (after a pause): the next step starts a new real-time reference."""
+        self._close_span()
+        self._next = -math.inf
+
+    def _close_span(self) -> None:
+        """Add the span from the reference frame to the last frame to the paced totals."""
+        if self._sim0 is not None:
+            self.sim_paced += self._last_sim - self._sim0
+            self.wall_paced += self._last_wall - self._wall0
+        self._sim0 = None
+
+    def __call__(self, cell: Cell) -> None:
+        t = cell.data.time
+        if t < self._next:
+            return
+        self._next = t + self.frame_sim
+        self.publish(cell)
+        self.frames += 1
+        now = self.clock()
+        if self._sim0 is None:
+            self._sim0 = self._last_sim = t
+            self._wall0 = self._last_wall = now
+            return
+        delay = self._wall0 + (t - self._sim0) / self.speed - now
+        if delay > 0:
+            self.sleep(delay)
+        self._last_sim, self._last_wall = t, self.clock()
+        if delay < -MAX_LAG:  # too slow for this speed: keep going from here, do not race
+            self._close_span()
+            self._sim0, self._wall0 = t, self._last_wall
+
+    def finish(self) -> None:
+        """Close the current span (before a pause or at the end; for :attr:`real_time_factor`)."""
+        self._close_span()
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated over wall time while paced (pauses excluded)."""
+        return self.sim_paced / self.wall_paced if self.wall_paced > 0 else 0.0
+
+
+class DemoGate:
+    """The runner's ``on_phase`` callback in demo mode: wait for Next before every phase.
+
+    Consecutive segments of one phase (the joint-space and straight-line parts of the approach)
+    pause once; spawn and settle do not pause.
+
+    Args:
+        wait: Blocks until Next is pressed; called with the phase about to run.
+    """
+
+    def __init__(self, wait: Callable[[str], None]) -> None:
+        self.wait = wait
+        self.last = ""
+        self.paused: list[str] = []
+
+    def __call__(self, phase: str) -> None:
+        previous, self.last = self.last, phase
+        if phase in DEMO_PHASES and phase != previous:
+            self.paused.append(phase)
+            self.wait(phase)
+
+
+@dataclass
+class ViewResult:
+    """What a live run produced.
+
+    Attributes:
+        report: The JSON-ready report (as ``run`` writes it).
+        report_path: Where it was written.
+        interrupted: True when Ctrl-C, SIGTERM (or closing the viewer) stopped the run early.
+        exit_code: The exit code the interrupt asks for (130 Ctrl-C, 143 SIGTERM), else 0.
+        real_time_factor: Simulated over wall time while running (demo pauses excluded).
+        frames: Viewer updates sent.
+        paused: Phases demo mode paused before, in order.
+    """
+
+    report: dict[str, Any]
+    report_path: Path
+    interrupted: bool
+    real_time_factor: float
+    frames: int
+    paused: list[str]
+    exit_code: int = 0
+
+
+class _Session:
+    """One viewer plus the runner's status: what is shown, and waiting for Next."""
+
+    def __init__(self, viewer: LiveViewer, runner: Runner, out: TextIO) -> None:
+        self.viewer, self.runner, self.out = viewer, runner, out
+        self.pacer: Pacer | None = None
+
+    def lines(self) -> list[str]:
+        return overlay_lines(self.runner.status, self.runner.cell.time)
+
+    def publish(self, cell: Cell, waiting: str = "") -> None:
+        self.viewer.publish(cell.data, self.lines(), waiting=waiting)
+
+    def wait_next(self, phase: str) -> None:
+        """Hold the simulation (the viewer stays live) until the user presses Next."""
+        cell, inbox = self.runner.cell, self.viewer.inbox
+        if self.pacer is not None:
+            self.pacer.finish()
+        self.out.write(f"demo: next phase {phase}; press Next in the viewer (or the N key)\n")
+        self.out.flush()
+        self.publish(cell, waiting=phase)
+        seen = inbox.next_presses
+        while inbox.next_presses == seen:
+            time.sleep(IDLE_PERIOD)
+            self.publish(cell, waiting=phase)
+        self.publish(cell)
+        if self.pacer is not None:
+            self.pacer.restart()
+
+
+def view_job(
+    config: RunConfig,
+    report_path: Path,
+    settings: ViewerSettings,
+    live: LiveSettings,
+    out: TextIO | None = None,
+    scene: Path | None = None,
+    on_ready: Callable[[LiveViewer], None] | None = None,
+    ik: UserIk | None = None,
+    cell: Path | None = None,
+) -> ViewResult:
+    """Run ``config.cycles`` cycles live in the viewer and write the report.
+
+    Args:
+        config: The run's settings (as for ``run``).
+        report_path: JSON report path.
+        settings: Viewer settings.
+        live: Pace and exit behaviour.
+        out: Where the URL, the per-cycle lines and the demo prompts go (stdout).
+        scene: MJCF scene path (default: the committed scene).
+        on_ready: Called with the open viewer before the first cycle (tests press Next with it).
+        ik: A user's IK function to plan with (as ``run --ik``).
+        cell: Cell file (TOML), compiled instead of a scene.
+
+    Returns:
+        The report and the measured pace.
+
+    Raises:
+        ConfigError: An unwritable report path, a busy port, no display for ``--window``.
+    """
+    out = out or sys.stdout
+    check_outputs(report_path, None, None, scene, ik, cell)
+    model = model_for(scene, cell) if scene is not None or cell is not None else None
+    runner = Runner(config, model=model, ik=ik)
+    viewer = LiveViewer(runner.model, settings)
+    try:
+        session = _Session(viewer, runner, out)
+        _announce(viewer, settings, out)
+        if on_ready is not None:
+            on_ready(viewer)
+        pacer = Pacer(session.publish, live.speed, live.fps)
+        session.pacer = pacer
+        gate = DemoGate(session.wait_next) if settings.demo else None
+        runner.on_phase = gate
+        runner.cell.hooks.append(pacer)
+        wall0 = time.perf_counter()
+        interrupted: BaseException | None = None
+        try:
+            run_cycles(runner, config.cycles, out)
+        except (KeyboardInterrupt, ViewerClosed) as exc:
+            interrupted = exc
+            why = (
+                f"interrupted ({signal_name(exc)})"
+                if isinstance(exc, KeyboardInterrupt)
+                else str(exc)
+            )
+            sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
+        pacer.finish()
+        runner.cell.hooks.remove(pacer)
+        runner.on_phase = None
+        wall = time.perf_counter() - wall0
+        report = runner_report(
+            runner,
+            wall,
+            interrupted if isinstance(interrupted, KeyboardInterrupt) else bool(interrupted),
+        )
+        write_json_atomic(report_path, report)
+        result = ViewResult(
+            report,
+            report_path,
+            interrupted is not None,
+            pacer.real_time_factor,
+            pacer.frames,
+            gate.paused if gate is not None else [],
+            exit_code(interrupted) if interrupted is not None else 0,
+        )
+        if not interrupted and not live.exit_when_done:
+            runner.status["phase"] = "done"
+            out.write(f"done; report: {report_path}; the viewer stays open: Ctrl-C to quit\n")
+            out.flush()
+            _hold_open(lambda: session.publish(runner.cell))
+        return result
+    finally:
+        viewer.close()
+
+
+def _announce(viewer: LiveViewer, settings: ViewerSettings, out: TextIO) -> None:
+    if viewer.url:
+        out.write(f"viewer: {viewer.url}\n")
+        if settings.exposed:
+            sys.stderr.write(
+                f"kr210_sim: warning: the viewer listens on {settings.host}: anyone who can "
+                "reach this port can watch and control it (no authentication, no encryption)\n"
+            )
+    else:
+        out.write("viewer: native window\n")
+    out.flush()
+
+
+def _hold_open(refresh: Callable[[], None]) -> None:
+    """Keep the viewer live until Ctrl-C or until it is closed."""
+    try:
+        while True:
+            refresh()
+            time.sleep(IDLE_PERIOD)
+    except (KeyboardInterrupt, ViewerClosed):
+        return
+
+
+# -- joint mode ------------------------------------------------------------------------------
+def rpy_deg(R: npt.ArrayLike) -> tuple[float, float, float]:
+    """Roll, pitch, yaw [deg] of rotation ``R`` (R = Rz(yaw) Ry(pitch) Rx(roll))."""
+    m = np.asarray(R, dtype=np.float64)
+    pitch = math.atan2(-m[2, 0], math.hypot(m[0, 0], m[1, 0]))
+    roll = math.atan2(m[2, 1], m[2, 2])
+    yaw = math.atan2(m[1, 0], m[0, 0])
+    return math.degrees(roll), math.degrees(pitch), math.degrees(yaw)
+
+
+def joint_readout(q: npt.ArrayLike, T_measured: npt.ArrayLike | None = None) -> list[str]:
+    """The joint-mode panel text for joint positions ``q`` [rad].
+
+    Args:
+        q: The six joint positions [rad].
+        T_measured: gripper_link's pose in MuJoCo (4x4), shown as a cross-check, or None.
+
+    Returns:
+        The joint values [deg], the gripper position [m] and roll/pitch/yaw [deg] from forward
+        kinematics, and the number of inverse-kinematics solutions inside the limits.
+    """
+    qa = np.asarray(q, dtype=np.float64)
+    T = kinematics.forward(qa)
+    n = int(np.sum(~np.isnan(kinematics.inverse(T)).any(axis=-1)))
+    roll, pitch, yaw = rpy_deg(T[:3, :3])
+    x, y, z = T[:3, 3]
+    lines = [
+        "joints [deg]: " + " ".join(f"{v:7.1f}" for v in np.degrees(qa)),
+        f"gripper x {x:6.3f}  y {y:6.3f}  z {z:6.3f} m",
+        f"roll {roll:7.1f}  pitch {pitch:7.1f}  yaw {yaw:7.1f} deg",
+        f"IK solutions within the limits: {n}",
+    ]
+    if T_measured is not None:
+        gap = float(np.linalg.norm(np.asarray(T_measured)[:3, 3] - T[:3, 3])) * 1000.0
+        lines.append(f"MuJoCo's gripper_link is {gap:.2f} mm from it")
+    return lines
+
+
+class JointPose:
+    """Joint mode's simulation side: pose the arm from the sliders and describe the pose.
+
+    Args:
+        viewer: The open viewer (its inbox holds the latest slider values).
+        cell: The cell; only the arm's joint positions are set (kinematically, no task).
+        q0: The starting pose [rad].
+    """
+
+    def __init__(self, viewer: LiveViewer, cell: Cell, q0: npt.ArrayLike) -> None:
+        self.viewer, self.cell = viewer, cell
+        self.q = np.asarray(q0, dtype=np.float64).copy()
+        self.cell.reset(self.q)
+        self.lines = joint_readout(self.q, self.cell.gripper_pose())
+
+    def tick(self) -> None:
+        """Take the sliders' latest values (if new) and show the pose."""
+        q = self.viewer.inbox.q
+        if q is not None and not np.array_equal(q, self.q):
+            self.q = np.asarray(q, dtype=np.float64)
+            self.cell.reset(self.q)
+            self.lines = joint_readout(self.q, self.cell.gripper_pose())
+        self.viewer.publish(self.cell.data, self.lines, q=self.q)
+
+
+def run_joints(settings: ViewerSettings, out: TextIO | None = None) -> None:
+    """Joint mode: show the arm posed by the panel's sliders until Ctrl-C or the viewer closes."""
+    from kr210_sim.cell.spec import MotionConfig
+    from kr210_sim.plan.planner import Planner
+    from kr210_sim.robot.description import load_robot
+
+    out = out or sys.stdout
+    robot = load_robot()
+    cell = Cell(load_model())
+    q0 = Planner(robot, MotionConfig()).ready_q
+    limits = (robot.q_lower.tolist(), robot.q_upper.tolist())
+    viewer = LiveViewer(cell.model, settings, joint_limits=limits)
+    try:
+        pose = JointPose(viewer, cell, q0)
+        _announce(viewer, settings, out)
+        _hold_open(pose.tick)
+    finally:
+        viewer.close()
+
+
+# -- replay ----------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class ReplayViewResult:
+    """What ``view --replay`` showed.
+
+    Attributes:
+        frames: Recorded frames published.
+        real_time_factor: Simulated over wall time of the playback.
+        interrupted: The interrupt (Ctrl-C, SIGTERM) or closed viewer that stopped it, or None.
+    """
+
+    frames: int
+    real_time_factor: float
+    interrupted: BaseException | None
+
+
+def replay_view(
+    recording: Any,
+    model: Any,
+    settings: ViewerSettings,
+    live: LiveSettings,
+    out: TextIO | None = None,
+    on_ready: Callable[[LiveViewer], None] | None = None,
+) -> ReplayViewResult:
+    """Play a recording (:class:`kr210_sim.media.recording.Recording`, checked against ``model``) in
+    the viewer at ``live.speed`` x real time: each recorded state is published as the live view
+    publishes the simulated one, with the same panel text.
+
+    Args:
+        recording: The recording.
+        model: The model it was made with.
+        settings: Viewer settings (demo and joint modes do not apply).
+        live: Speed, and whether to return at the end instead of holding the last frame.
+        out: Where the URL goes (stdout).
+        on_ready: Called with the open viewer before the first frame.
+
+    Raises:
+        ConfigError: A busy port, no display for ``--window``, an unknown camera.
+    """
+    import mujoco
+
+    from kr210_sim.media.recording import apply_frame
+
+    out = out or sys.stdout
+    data = mujoco.MjData(model)
+    viewer = LiveViewer(model, settings)
+    geoms = recording.target_geoms
+    times = recording.arrays["time"]
+    shown = 0
+    interrupted: BaseException | None = None
+    try:
+        _announce(viewer, settings, out)
+        if on_ready is not None:
+            on_ready(viewer)
+        wall0 = time.perf_counter()
+        try:
+            for i in range(recording.frames):
+                apply_frame(model, data, recording.arrays["qpos"][i], geoms, recording.shapes_at(i))
+                delay = wall0 + (times[i] - times[0]) / live.speed - time.perf_counter()
+                if delay > 0:
+                    time.sleep(delay)
+                viewer.publish(data, recording.status(i).lines())
+                shown += 1
+        except (KeyboardInterrupt, ViewerClosed) as exc:
+            interrupted = exc
+        wall = time.perf_counter() - wall0
+        rtf = float(times[shown - 1] - times[0]) / wall if shown > 1 and wall > 0 else 0.0
+        if interrupted is None and not live.exit_when_done:
+            out.write("replay done; the viewer stays open: Ctrl-C to quit\n")
+            out.flush()
+            last = recording.status(shown - 1).lines()
+            _hold_open(lambda: viewer.publish(data, last))
+        return ReplayViewResult(shown, rtf, interrupted)
+    finally:
+        viewer.close()
