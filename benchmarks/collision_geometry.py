@@ -15,7 +15,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from colliders import stick_out
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 
 
 def main() -> None:

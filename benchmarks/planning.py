@@ -6,7 +6,8 @@ that needed a detour, successes and robot-cell contact ticks. Run: python benchm
 
 from __future__ import annotations
 
-from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
+from kr210_sim.cell.load import model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.score.report import summarise
 from kr210_sim.sim.runner import RunConfig, Runner
 

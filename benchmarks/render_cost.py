@@ -58,7 +58,7 @@ def compare(paths: list[str], snaps: list[mujoco.MjData], rounds: int = 5) -> No
     """Bare 640x480 medium-quality cost per frame of each scene file, the committed one first;
     the scenes take turns for ``rounds`` rounds and the fastest round of each counts (a shared
     machine's load comes and goes)."""
-    from kr210_sim.cell.mjcf import load_model
+    from kr210_sim.cell.load import load_model
 
     shadows, shadow_size, msaa = QUALITY["medium"]
     scenes = []

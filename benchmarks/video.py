@@ -29,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 import kr210_sim  # noqa: F401  (chooses MUJOCO_GL=egl before mujoco is imported)
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.media.recording import Recording, StateRecorder, read_recording
 from kr210_sim.media.render_pool import FrameRenderer, default_workers, render_recording
 from kr210_sim.media.video import VideoSettings, _Writer

@@ -351,7 +351,7 @@ def evaluate(
         SceneError: The scene cannot be loaded.
         RunInterrupted: Ctrl-C stopped it (the report of the episodes finished was written).
     """
-    from kr210_sim.cell.mjcf import load_model
+    from kr210_sim.cell.load import load_model
     from kr210_sim.eval import evaluate as evaluation
     from kr210_sim.util.outputs import check_writable
 

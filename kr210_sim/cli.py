@@ -216,7 +216,7 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.toml import model_at
+    from kr210_sim.cell.load import model_at
     from kr210_sim.media.recording import check_model, read_recording
     from kr210_sim.media.render_pool import default_workers, render_recording
     from kr210_sim.media.video import VideoSettings
@@ -324,7 +324,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 def _view_replay(args: argparse.Namespace, settings: Any) -> int:
     """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
-    from kr210_sim.cell.toml import model_at
+    from kr210_sim.cell.load import model_at
     from kr210_sim.media.recording import check_model, read_recording
     from kr210_sim.view.live import LiveSettings, replay_view
 
@@ -352,7 +352,7 @@ def _view_replay(args: argparse.Namespace, settings: Any) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.toml import model_for
+    from kr210_sim.cell.load import model_for
     from kr210_sim.eval.evaluate import EvalConfig, evaluate
     from kr210_sim.score.report import check_writable
 
@@ -429,7 +429,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.toml import model_for
+    from kr210_sim.cell.load import model_for
     from kr210_sim.plan.cellcheck import check_cell
 
     result = check_cell(model_for(args.scene, args.cell))
@@ -478,7 +478,7 @@ def _cmd_build_meshes(args: argparse.Namespace) -> int:
 
 
 def _cmd_snapshot(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.toml import model_for
+    from kr210_sim.cell.load import model_for
     from kr210_sim.media.render import snapshot
 
     model = model_for(None, args.cell) if args.cell is not None else None

@@ -78,3 +78,15 @@ class UnservableCellError(ConfigError):
 
 class NoPathError(PlanningError):
     """No collision-free plan exists for a move (the detail names what blocks)."""
+
+
+def one_line(text: object) -> str:
+    """``text`` as one line: every run of white space (newlines included) becomes one space.
+
+    Error messages are printed one line each; MuJoCo's and user code's messages often span
+    several. An exception without a message gives its type's name.
+    """
+    line = " ".join(str(text).split())
+    if not line and isinstance(text, BaseException):
+        return type(text).__name__
+    return line

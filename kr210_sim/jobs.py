@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from kr210_sim.cell.toml import model_for
-from kr210_sim.errors import ConfigError, RenderError, UnservableCellError
+from kr210_sim.cell.load import model_for
+from kr210_sim.errors import ConfigError, RenderError, UnservableCellError, one_line
 from kr210_sim.media.plots import PLOT_NAMES
 from kr210_sim.media.recording import (
     DEFAULT_RATE,
@@ -32,7 +32,7 @@ from kr210_sim.media.recording import (
     write_recording,
 )
 from kr210_sim.media.render_pool import RenderPool, default_workers
-from kr210_sim.media.video import VideoSettings, _one_line
+from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line, write_json_atomic
 from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
@@ -324,7 +324,11 @@ def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt 
     """Render what is left and close the MP4: (frames, error, interrupt). Ctrl-C here keeps the
     frames so far."""
     if pool.error is not None:
-        return 0, f"video recording failed: {_one_line(pool.error)}", None
+        return (
+            0,
+            f"video recording failed: {one_line(pool.error)}",
+            None,
+        )
     try:
         return pool.finish(), None, None
     except KeyboardInterrupt as exc:

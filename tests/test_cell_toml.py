@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.mjcf import load_model
-from kr210_sim.cell.toml import PUBLISHED_CELL, compile_cell, load_cell, model_for, parse_cell
+from kr210_sim.cell.load import compile_cell, load_model, model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL, load_cell, parse_cell
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
 

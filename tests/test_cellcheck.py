@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
+from kr210_sim.cell.load import model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
 from kr210_sim.plan.cellcheck import check_cell
 

@@ -8,9 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
-from kr210_sim.cell.toml import PUBLISHED_CELL, model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.errors import NoPathError
 from kr210_sim.plan.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker, check_samples
 from kr210_sim.plan.planner import Planner

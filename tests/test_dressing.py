@@ -8,7 +8,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import CellHandles, load_model
+from kr210_sim.cell.handles import CellHandles
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.toml import PUBLISHED_CELL, load_cell
 from kr210_sim.media.render import make_renderer, render_frame
 from kr210_sim.robot.description import ARM_LINKS

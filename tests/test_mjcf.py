@@ -8,7 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import CellHandles, build_scene, load_model
+from kr210_sim.cell.handles import CellHandles
+from kr210_sim.cell.load import load_model
+from kr210_sim.cell.mjcf import build_scene
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import published_cell
 from kr210_sim.plan.planner import Planner, grasp_depth, radial_yaw

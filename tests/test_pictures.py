@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kr210_sim.cell.mjcf import CellHandles
+from kr210_sim.cell.handles import CellHandles
 from kr210_sim.media.pictures import grasp_states
 
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cli import main
 from kr210_sim.errors import RecordingError
 from kr210_sim.jobs import run_job

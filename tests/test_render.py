@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.errors import ConfigError
 from kr210_sim.media.render import make_renderer, snapshot
 

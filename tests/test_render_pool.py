@@ -15,7 +15,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cli import main
 from kr210_sim.errors import RenderError
 from kr210_sim.jobs import run_job

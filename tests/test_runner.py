@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.score.report import build_report, strip_wall
 from kr210_sim.score.scoring import in_bin

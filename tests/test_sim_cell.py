@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.sim.cell import Cell, ramp
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import TargetSpec
 from kr210_sim.score.report import build_report
 from kr210_sim.score.scoring import in_bin

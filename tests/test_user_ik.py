@@ -17,16 +17,15 @@ from kr210_sim.errors import ConfigError, IkFailedError, IkSpecError, Unreachabl
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
-from kr210_sim.robot.user_ik import (
+from kr210_sim.robot.ik_guard import (
     MAX_LINE_STEP,
     CheckedIk,
-    UserIk,
     assess,
     branch_change,
     call_timed,
     into_limits,
-    load_ik,
 )
+from kr210_sim.robot.user_ik import UserIk, load_ik
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])

@@ -22,7 +22,7 @@ import numpy.typing as npt
 import pytest
 from chromium import ViewProcess, free_port
 
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cli import main
 from kr210_sim.jobs import run_job
 from kr210_sim.robot import kinematics

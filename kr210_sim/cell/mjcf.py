@@ -5,7 +5,8 @@ what URDF cannot say (actuators, gravity compensation, armature, the coupled fin
 cameras, contact parameters, a ``home`` keyframe) and the cell (floor, shelf, bin, targets,
 lights) from a cell file's value (:class:`~kr210_sim.cell.spec.CellConfig`, see
 :mod:`kr210_sim.cell.toml`). :func:`build_scene` writes the published cell to ``scenes/``; the
-runtime loads the committed file with :func:`load_model`, and a test proves it is current.
+runtime loads the committed file (:func:`kr210_sim.cell.load.load_model`) and a test proves it is
+current. Only the commands that build import this module (it pulls in trimesh for the dressing).
 
 Named elements the runtime reads (:mod:`kr210_sim.cell.layout`): bodies ``shelf`` (geoms
 ``shelf_board_<row>``, ``shelf_top``, ``shelf_back``, ``shelf_wall_left/right``,
@@ -30,13 +31,13 @@ Choices (see also the README in ``assets/kr210``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell import dressing
+from kr210_sim.cell.handles import ENV_PARTS, target_name
 from kr210_sim.cell.spec import (
     SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
@@ -100,11 +101,6 @@ _EXCLUDES = (
     ("link_6", "left_gripper_finger_link"),
     ("right_gripper_finger_link", "left_gripper_finger_link"),
 )
-
-
-def target_name(index: int) -> str:
-    """Body (and geom) name of target cylinder ``index`` (0-based)."""
-    return f"target_{index}"
 
 
 def _look_at(pos: npt.ArrayLike, target: npt.ArrayLike) -> tuple[float, ...]:
@@ -532,10 +528,6 @@ def _dress(
     dressing.add_lights(spec, center=(1.0, 1.0, 1.0))
 
 
-#: The cell parts the contact monitor watches, in the order of ``env_contact_sensors``.
-ENV_PARTS = ("shelf", "bin", "obstacles", "floor")
-
-
 def _add_contact_sensors(spec: mujoco.MjSpec, obstacles: bool) -> None:
     """How many contacts the moving robot (link_1's subtree) has with each cell part (shelf,
     bin, obstacles, floor), read by the control loop every tick."""
@@ -682,155 +674,3 @@ def _relpath(target: Path, start: Path) -> str:
     import os
 
     return os.path.relpath(target.resolve(), start.resolve())
-
-
-def load_model(path: Path | str | None = None) -> mujoco.MjModel:
-    """Load a cell model: the MJCF at ``path``, or the committed scene when None.
-
-    Raises:
-        SceneError: When the file is missing or MuJoCo rejects it.
-    """
-    path = Path(path) if path is not None else SCENE_PATH
-    if path.is_dir():
-        raise SceneError(f"scene {path} is a folder: give the MJCF file (e.g. {SCENE_PATH.name})")
-    if not path.is_file():
-        raise SceneError(f"scene not found: {path} (run `python -m kr210_sim build-scene`)")
-    try:
-        return mujoco.MjModel.from_xml_path(str(path))
-    except Exception as exc:
-        reason = " ".join(str(exc).split())  # MuJoCo's messages span several lines
-        raise SceneError(f"MuJoCo cannot load scene {path}: {reason}") from exc
-
-
-@dataclass(frozen=True, slots=True)
-class CellHandles:
-    """Indices into a compiled cell model, looked up once by name.
-
-    Attributes:
-        arm_qpos: qpos addresses of joint_1..joint_6.
-        arm_dof: dof addresses of joint_1..joint_6.
-        arm_act: Actuator ids of joint_1..joint_6.
-        finger_qpos: qpos addresses of the right and left finger joints.
-        grip_act: Actuator id of the gripper.
-        gripper_body: Body id of gripper_link.
-        grip_site: Site id of the grasp centre between the fingers.
-        finger_geoms: Geom ids of the right and left finger pads.
-        lip_geoms: Geom ids of the right and left fingertip lips.
-        robot_geoms: Collision geom ids of the robot.
-        shelf_geoms: Geom ids of the shelf.
-        bin_geoms: Geom ids of the bin.
-        env_geoms: Geom ids of every cell part the robot must not touch (shelf, bin, obstacles,
-            floor).
-        target_bodies: Body ids of the targets.
-        target_geoms: Geom ids of the targets.
-        target_qpos: qpos address of each target's free joint.
-        target_dof: dof address of each target's free joint.
-        env_contact_sensors: sensordata addresses of the robot's contact counts with each cell
-            part (:data:`ENV_PARTS` that the model has).
-    """
-
-    arm_qpos: npt.NDArray[np.int_]
-    arm_dof: npt.NDArray[np.int_]
-    arm_act: npt.NDArray[np.int_]
-    finger_qpos: npt.NDArray[np.int_]
-    grip_act: int
-    gripper_body: int
-    grip_site: int
-    finger_geoms: tuple[int, int]
-    lip_geoms: tuple[int, int]
-    robot_geoms: frozenset[int]
-    shelf_geoms: frozenset[int]
-    bin_geoms: frozenset[int]
-    env_geoms: frozenset[int]
-    target_bodies: npt.NDArray[np.int_]
-    target_geoms: npt.NDArray[np.int_]
-    target_qpos: npt.NDArray[np.int_]
-    target_dof: npt.NDArray[np.int_]
-    env_contact_sensors: tuple[int, ...]
-
-    @classmethod
-    def from_model(cls, model: mujoco.MjModel) -> CellHandles:
-        """Look up every handle by name.
-
-        Raises:
-            SceneError: When a named element is missing (lists what exists).
-        """
-
-        def jid(name: str) -> int:
-            i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-            if i < 0:
-                names = [model.joint(k).name for k in range(model.njnt)]
-                raise SceneError(
-                    f"scene is not a kr210_sim cell: it has no joint {name!r} (joints: {names})"
-                )
-            return int(i)
-
-        def oid(kind: mujoco.mjtObj, name: str) -> int:
-            i = mujoco.mj_name2id(model, kind, name)
-            if i < 0:
-                raise SceneError(
-                    f"scene is not a kr210_sim cell: it has no {kind.name[6:].lower()} {name!r}"
-                )
-            return int(i)
-
-        arm = [jid(n) for n in ARM_JOINTS]
-        fingers = [jid(n) for n in FINGER_JOINTS]
-        robot_bodies = {oid(mujoco.mjtObj.mjOBJ_BODY, n) for n in ARM_LINKS} | {
-            oid(mujoco.mjtObj.mjOBJ_BODY, n)
-            for n in ("right_gripper_finger_link", "left_gripper_finger_link")
-        }
-        shelf = oid(mujoco.mjtObj.mjOBJ_BODY, "shelf")
-        bin_ = oid(mujoco.mjtObj.mjOBJ_BODY, "bin")
-        targets = []
-        k = 0
-        while mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, target_name(k)) >= 0:
-            targets.append(oid(mujoco.mjtObj.mjOBJ_BODY, target_name(k)))
-            k += 1
-        if not targets:
-            raise SceneError("scene has no target cylinders (target_0 ...)")
-        target_joints = [jid(f"{target_name(i)}_joint") for i in range(len(targets))]
-        gb = model.geom_bodyid
-        env_bodies = {shelf, bin_}
-        obstacles = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "obstacles")
-        if obstacles >= 0:
-            env_bodies.add(int(obstacles))
-        floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
-        sensors = []
-        for env in ENV_PARTS:
-            i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")
-            if i >= 0:
-                sensors.append(int(model.sensor_adr[i]))
-            elif env in ("shelf", "bin"):
-                oid(mujoco.mjtObj.mjOBJ_SENSOR, f"robot_{env}_contacts")  # raises
-        return cls(
-            arm_qpos=np.array([model.jnt_qposadr[j] for j in arm]),
-            arm_dof=np.array([model.jnt_dofadr[j] for j in arm]),
-            arm_act=np.array([oid(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ARM_JOINTS]),
-            finger_qpos=np.array([model.jnt_qposadr[j] for j in fingers]),
-            grip_act=oid(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper"),
-            gripper_body=oid(mujoco.mjtObj.mjOBJ_BODY, "gripper_link"),
-            grip_site=oid(mujoco.mjtObj.mjOBJ_SITE, "gripper"),
-            finger_geoms=(
-                oid(mujoco.mjtObj.mjOBJ_GEOM, "right_finger_pad"),
-                oid(mujoco.mjtObj.mjOBJ_GEOM, "left_finger_pad"),
-            ),
-            lip_geoms=(
-                oid(mujoco.mjtObj.mjOBJ_GEOM, "right_finger_lip"),
-                oid(mujoco.mjtObj.mjOBJ_GEOM, "left_finger_lip"),
-            ),
-            robot_geoms=frozenset(
-                g
-                for g in range(model.ngeom)
-                if gb[g] in robot_bodies and model.geom_contype[g] != 0
-            ),
-            shelf_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == shelf),
-            bin_geoms=frozenset(g for g in range(model.ngeom) if gb[g] == bin_),
-            env_geoms=frozenset(g for g in range(model.ngeom) if gb[g] in env_bodies or g == floor),
-            target_bodies=np.array(targets),
-            target_geoms=np.array(
-                [oid(mujoco.mjtObj.mjOBJ_GEOM, target_name(i)) for i in range(len(targets))]
-            ),
-            target_qpos=np.array([model.jnt_qposadr[j] for j in target_joints]),
-            target_dof=np.array([model.jnt_dofadr[j] for j in target_joints]),
-            env_contact_sensors=tuple(sensors),
-        )

@@ -1,4 +1,4 @@
-"""Cell files: a cell as TOML, checked key by key, compiled to a MuJoCo model on demand.
+"""Cell files: a cell as TOML, checked key by key (compiled by :mod:`kr210_sim.cell.load`).
 
 A cell file has the sections ``[shelf]``, ``[bin]``, ``[target]`` (with ``[target.randomize]``)
 and any number of ``[[obstacles]]``; the README lists every key with its unit. A bad file is one
@@ -28,10 +28,8 @@ from kr210_sim.cell.spec import (
     ShelfSpec,
     TargetSpec,
 )
-from kr210_sim.errors import ConfigError, Kr210SimError
+from kr210_sim.errors import ConfigError
 from kr210_sim.util.paths import SCENES_DIR
-
-import mujoco  # isort: skip
 
 #: The published cell.
 PUBLISHED_CELL = SCENES_DIR / "cells" / "published.toml"
@@ -365,52 +363,3 @@ def load_cell(path: Path | str) -> CellConfig:
 def published_cell() -> CellConfig:
     """The published cell (``scenes/cells/published.toml``)."""
     return load_cell(PUBLISHED_CELL)
-
-
-def compile_cell(cell: CellConfig) -> mujoco.MjModel:
-    """Compile a cell to a model, through MJCF text exactly as ``build-scene`` writes it (so the
-    published cell compiles to the committed scene's model). Cached by the cell's value."""
-    return _compile_cached(cell)
-
-
-@functools.lru_cache(maxsize=8)
-def _compile_cached(cell: CellConfig) -> mujoco.MjModel:
-    from kr210_sim.cell.mjcf import scene_xml
-
-    xml = scene_xml(cell)
-    try:
-        return mujoco.MjModel.from_xml_string(xml)
-    except Exception as exc:  # pragma: no cover - build_spec compiled it already
-        raise Kr210SimError(f"cell {cell.name} does not load: {exc}") from exc
-
-
-def model_at(path: Path | str | None) -> mujoco.MjModel:
-    """The model of ``path``: a cell file (``.toml``) compiled, an MJCF scene loaded, or the
-    committed scene for None (what recordings and evaluation workers name as their "scene").
-
-    Raises:
-        ConfigError: A bad cell file.
-        SceneError: When the scene cannot be loaded.
-    """
-    if path is not None and Path(path).suffix.lower() == ".toml":
-        return model_for(None, Path(path))
-    return model_for(Path(path) if path is not None else None, None)
-
-
-def model_for(scene: Path | None = None, cell: Path | None = None) -> mujoco.MjModel:
-    """The model a command simulates: ``--cell`` compiled, ``--scene`` loaded, or the committed
-    scene (a copy: callers may change it).
-
-    Raises:
-        ConfigError: When both are given, or the cell file is bad.
-        SceneError: When the scene cannot be loaded.
-    """
-    import copy
-
-    from kr210_sim.cell.mjcf import load_model
-
-    if scene is not None and cell is not None:
-        raise ConfigError("give --scene or --cell, not both (a cell compiles to a scene)")
-    if cell is not None:
-        return copy.copy(compile_cell(load_cell(cell)))
-    return load_model(scene)

@@ -53,7 +53,7 @@ import numpy.typing as npt
 from gymnasium import spaces
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.planner import gripper_pose

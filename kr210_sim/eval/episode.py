@@ -38,7 +38,7 @@ def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
     global _PRISTINE
     key = str(scene) if scene is not None else None
     if _PRISTINE is None or _PRISTINE[0] != key:
-        from kr210_sim.cell.toml import model_at
+        from kr210_sim.cell.load import model_at
 
         _PRISTINE = (key, model_at(scene))
     return _PRISTINE[1]

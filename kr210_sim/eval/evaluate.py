@@ -402,7 +402,7 @@ def _report(
 def _randomization(config: EvalConfig) -> dict[str, Any]:
     """The randomisation ranges of the evaluated cell (as its model holds them)."""
     from kr210_sim.cell.layout import CellLayout
-    from kr210_sim.cell.toml import model_for
+    from kr210_sim.cell.load import model_for
 
     r = CellLayout.from_model(model_for(config.scene, config.cell)).randomization
     return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(r).items()}

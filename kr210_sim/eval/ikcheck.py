@@ -13,7 +13,7 @@ The successor of the original exercise's debug script. Cases, by group:
 
 For the non-cell groups ``q_ref`` is the joint state that generated the pose, so an IK that
 picks the solution nearest ``q_ref`` moves no joint at all. Each answer is judged by
-:func:`kr210_sim.robot.user_ik.assess` (our forward kinematics); a case passes when the position
+:func:`kr210_sim.robot.ik_guard.assess` (our forward kinematics); a case passes when the position
 error is <= 1 mm, the orientation error <= 1 mrad and q is inside the limits. An answer that is
 not the solution nearest ``q_ref`` (ours, :func:`kinematics.nearest`) by more than 0.1 rad in
 some joint is flagged with the kind of branch change (a wrist flip, a 2 pi jump, another arm
@@ -35,16 +35,16 @@ import numpy.typing as npt
 from kr210_sim.errors import ConfigError, UnreachablePoseError
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import ARM_JOINTS
-from kr210_sim.robot.user_ik import (
+from kr210_sim.robot.ik_guard import (
     MAX_LINE_STEP,
     ORIENTATION_TOL,
     POSITION_TOL,
     Assessment,
-    UserIk,
     assess,
     branch_change,
     call_timed,
 )
+from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.util.progress import ProgressLine, bar
 
 FloatArray = npt.NDArray[np.float64]
@@ -82,7 +82,7 @@ def cell_cases() -> list[Case]:
     """Standoff, grasp, lift and retreat poses of every slot and the drop pose of every drop
     spot of the published cell, as the planner computes them."""
     from kr210_sim.cell.layout import CellLayout
-    from kr210_sim.cell.mjcf import load_model
+    from kr210_sim.cell.load import load_model
     from kr210_sim.plan.planner import Planner
     from kr210_sim.robot.description import load_robot
     from kr210_sim.sim.runner import RunConfig, sample_target

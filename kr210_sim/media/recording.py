@@ -488,7 +488,7 @@ def record_episode(
     """
     import copy
 
-    from kr210_sim.cell.toml import model_at
+    from kr210_sim.cell.load import model_at
     from kr210_sim.score.report import build_report
     from kr210_sim.sim.runner import RunConfig, Runner
     from kr210_sim.util.outputs import check_folder
@@ -560,7 +560,7 @@ def record_failures(
     Returns:
         One entry per failed episode, in the records' order.
     """
-    from kr210_sim.cell.toml import model_at
+    from kr210_sim.cell.load import model_at
     from kr210_sim.util.outputs import check_folder
 
     failed = [r for r in records if not r["success"]]

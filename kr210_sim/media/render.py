@@ -117,8 +117,9 @@ def snapshot(
     """
     import imageio.v3 as iio
 
+    from kr210_sim.cell.handles import CellHandles
     from kr210_sim.cell.layout import CellLayout
-    from kr210_sim.cell.mjcf import CellHandles, load_model
+    from kr210_sim.cell.load import load_model
     from kr210_sim.cell.spec import MotionConfig
     from kr210_sim.util.outputs import check_writable, write_bytes_atomic
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.errors import ConfigError, RenderError
+from kr210_sim.errors import ConfigError, RenderError, one_line
 from kr210_sim.util.outputs import commit, discard, temp_beside
 
 #: Quality presets: (shadows, shadow map size [px], MSAA samples).
@@ -316,15 +316,11 @@ class _Writer:
         if self.error is not None or self.frames == 0:
             discard(self.tmp)
             if self.error is not None:
-                raise RenderError(f"video encoding failed: {_one_line(self.error)}")
+                raise RenderError(
+                    f"video encoding failed: {one_line(self.error) or type(self.error).__name__}"
+                )
             return
         try:
             commit(self.tmp, self.path)
         except ConfigError as exc:
             raise RenderError(str(exc)) from exc
-
-
-def _one_line(exc: BaseException) -> str:
-    """An exception as one line: its type when it has no message."""
-    text = " ".join(str(exc).split())
-    return text or type(exc).__name__

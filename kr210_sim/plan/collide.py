@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.mjcf import CellHandles
+from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.spec import TargetSpec
 from kr210_sim.plan.trajectory import Trajectory
 from kr210_sim.robot import kinematics

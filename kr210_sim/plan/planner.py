@@ -42,7 +42,8 @@ from kr210_sim.plan.trajectory import (
 )
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import RobotDescription
-from kr210_sim.robot.user_ik import CheckedIk, UserIk
+from kr210_sim.robot.ik_guard import CheckedIk
+from kr210_sim.robot.user_ik import UserIk
 
 if TYPE_CHECKING:
     from kr210_sim.plan.collide import CollisionChecker, Hit
@@ -139,7 +140,7 @@ class Planner:
         robot: The robot description.
         motion: Motion settings.
         ik: A user's IK function to plan with instead of :func:`kinematics.nearest`; every
-            answer is checked (:class:`~kr210_sim.robot.user_ik.CheckedIk`) and a bad one raises
+            answer is checked (:class:`~kr210_sim.robot.ik_guard.CheckedIk`) and a bad one raises
             :class:`~kr210_sim.errors.IkFailedError`.
         checker: Checks every move against the cell (:mod:`kr210_sim.plan.collide`); a joint-space
             move that collides is planned again through via points (:meth:`detour`), and a

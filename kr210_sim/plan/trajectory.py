@@ -30,6 +30,7 @@ import ruckig
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import PlanningError
 from kr210_sim.robot.description import RobotDescription
+from kr210_sim.robot.kinematics import LIMIT_SLACK
 
 FloatArray = npt.NDArray[np.float64]
 #: An IK function ``ik(T_base_gripper, q_ref) -> q`` (e.g.
@@ -37,8 +38,6 @@ FloatArray = npt.NDArray[np.float64]
 IkFunction = Callable[[FloatArray, FloatArray], FloatArray]
 #: Largest joint change between consecutive line samples before we call it a jump [rad].
 MAX_SAMPLE_JUMP = 0.2
-#: Slack allowed on the position limits [rad].
-LIMIT_TOL = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,8 +80,8 @@ class JointLimits:
 
     def check_position(self, q: FloatArray, what: str) -> None:
         """Raise PlanningError when ``q`` [rad] (shape (..., 6)) leaves the position limits."""
-        below = q < self.lower - LIMIT_TOL
-        above = q > self.upper + LIMIT_TOL
+        below = q < self.lower - LIMIT_SLACK
+        above = q > self.upper + LIMIT_SLACK
         if np.any(below | above):
             j = int(np.argwhere(below | above)[0][-1])
             v = float(
@@ -194,7 +193,7 @@ def plan_ptp(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: JointLimits)
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"ruckig found no PTP profile ({result})")
     for j, ext in enumerate(profile.position_extrema):
-        if ext.min < limits.lower[j] - LIMIT_TOL or ext.max > limits.upper[j] + LIMIT_TOL:
+        if ext.min < limits.lower[j] - LIMIT_SLACK or ext.max > limits.upper[j] + LIMIT_SLACK:
             raise PlanningError(f"PTP profile of joint_{j + 1} overshoots its position limits")
     return PtpTrajectory(profile, qs, qg)
 

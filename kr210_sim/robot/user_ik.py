@@ -1,4 +1,4 @@
-"""Bring your own IK: load a user's inverse-kinematics function and judge every answer it gives.
+"""Bring your own IK: load a user's inverse-kinematics function from a SPEC.
 
 The contract (the README's "Do the exercise" section says the same)::
 
@@ -11,20 +11,7 @@ A SPEC names the function: ``package.module:function`` (imported) or ``path/to/f
 (loaded from the file; its folder is on ``sys.path`` while it is imported). :func:`load_ik` turns a
 SPEC into a :class:`UserIk`; a bad SPEC is one :class:`~kr210_sim.errors.IkSpecError` line. A
 :class:`UserIk` pickles as its SPEC, so worker processes rebuild the function from the string.
-
-Every answer is judged with *our* forward kinematics (:func:`assess`) before anything moves:
-
-* 2 pi twins: an angle outside its joint's limits is replaced by its 2 pi twin when one lies
-  inside (the twin nearest ``q_ref``), because a student's ``atan2`` answers lie in (-pi, pi]
-  while joints 1, 3, 4 and 6 reach past +-pi. An angle inside its limits is taken as given.
-* The answer must be six finite numbers inside the limits (:data:`LIMIT_TOL` slack), and
-  ``forward(q)`` must reproduce ``T`` within :data:`POSITION_TOL` and :data:`ORIENTATION_TOL`.
-* On straight-line moves (samples ``lin_step`` = 1 cm apart), no joint may move more than
-  :data:`MAX_LINE_STEP` from the previous sample (a branch change: wrist flip, elbow flip, 2 pi).
-
-:class:`CheckedIk` applies these checks for the planner and raises
-:class:`~kr210_sim.errors.IkFailedError` with which pose and what was wrong; it also times every
-call (``time.perf_counter`` around the user's function only).
+Every answer is judged before anything moves: :mod:`kr210_sim.robot.ik_guard`.
 """
 
 from __future__ import annotations
@@ -32,9 +19,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.util
-import math
 import sys
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -44,27 +29,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.errors import IkFailedError, IkSpecError, UnreachablePoseError
-from kr210_sim.robot import kinematics
-from kr210_sim.robot.description import ARM_JOINTS
+from kr210_sim.errors import IkSpecError, one_line
 
 FloatArray = npt.NDArray[np.float64]
-
-#: Largest position error of ``forward(q)`` against the requested pose [m]. The pass bar of the
-#: exercise; a correct closed form is exact to ~1e-12 m.
-POSITION_TOL = 1e-3
-#: Largest orientation error [rad]. 1 mrad moves the fingertips (0.15-0.2 m ahead of
-#: gripper_link) by 0.15-0.2 mm, well inside the position bar, and still catches every wrong
-#: frame convention (those err by tens of mrad or more).
-ORIENTATION_TOL = 1e-3
-#: Largest joint change between neighbouring straight-line samples (<= 1 cm apart) [rad]. Our
-#: IK moves a joint at most 0.017 rad per sample over the lines of 200 cells (published and
-#: randomised); a wrist flip moves joints 4 and 6 by about pi, a 2 pi twin by 2 pi, an elbow or
-#: shoulder flip by tenths of a radian or more. 0.1 rad leaves a 6x margin for correct answers.
-MAX_LINE_STEP = 0.1
-#: Slack on the joint limits [rad].
-LIMIT_TOL = 1e-9
-TWO_PI = 2.0 * math.pi
 
 
 # --------------------------------------------------------------------------- loading
@@ -93,12 +60,8 @@ class UserIk:
         return Path(where) if _is_path(where) else None
 
 
-def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
-
-
-def _describe_exception(exc: BaseException) -> str:
-    msg = _one_line(str(exc))
+def describe_exception(exc: BaseException) -> str:
+    msg = one_line(str(exc))
     return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
 
 
@@ -173,17 +136,17 @@ def load_ik(spec: str) -> UserIk:
     except SyntaxError as exc:
         line = f" line {exc.lineno}" if exc.lineno else ""
         raise IkSpecError(
-            f"--ik {spec!r}: syntax error in {exc.filename or where}{line}: {_one_line(exc.msg)}"
+            f"--ik {spec!r}: syntax error in {exc.filename or where}{line}: {one_line(exc.msg)}"
         ) from None
     except ModuleNotFoundError as exc:
         if exc.name and (where == exc.name or where.startswith(exc.name + ".")):
             raise IkSpecError(f"--ik {spec!r}: no module named {exc.name!r}") from None
         raise IkSpecError(
-            f"--ik {spec!r}: importing {where} raised {_describe_exception(exc)}"
+            f"--ik {spec!r}: importing {where} raised {describe_exception(exc)}"
         ) from None
     except (Exception, SystemExit) as exc:
         raise IkSpecError(
-            f"--ik {spec!r}: importing {where} raised {_describe_exception(exc)}"
+            f"--ik {spec!r}: importing {where} raised {describe_exception(exc)}"
         ) from None
     fn = getattr(module, name, None)
     if fn is None:
@@ -218,288 +181,3 @@ def ik_from_callable(fn: Callable[..., Any]) -> UserIk:
     module = getattr(fn, "__module__", None) or "__main__"
     name = getattr(fn, "__qualname__", None) or type(fn).__name__
     return UserIk(f"{module}:{name}", fn)
-
-
-# --------------------------------------------------------------------------- judging
-@dataclass(frozen=True, slots=True)
-class Assessment:
-    """What one answer of a user's IK function is worth.
-
-    Attributes:
-        q: The answer as six angles [rad] after 2 pi twins were moved into the limits, or None
-            when the function raised or returned something that is not six finite numbers.
-        error: The exception's text when the function raised (``Type: message``), else "".
-        problem: The first reason the answer is unusable, one phrase; "" when it is usable.
-        returned_none: True when the function returned None ("unreachable").
-        position_error: |p(forward(q)) - p(T)| [m] (NaN without q).
-        orientation_error: Rotation angle between forward(q) and T [rad] (NaN without q).
-        wrist_centre_error: Distance between the wrist centres of forward(q) and T [m].
-        within_limits: q is inside the joint limits (False without q).
-        wrapped: Joints (0-based) whose angle was replaced by its 2 pi twin inside the limits.
-        max_move: Largest |q - q_ref| over the joints [rad] (NaN without q).
-        max_move_joint: Joint (0-based) of ``max_move`` (-1 without q).
-        call_time: Wall-clock time of the call [s].
-    """
-
-    q: FloatArray | None
-    error: str
-    problem: str
-    returned_none: bool
-    position_error: float
-    orientation_error: float
-    wrist_centre_error: float
-    within_limits: bool
-    wrapped: tuple[int, ...]
-    max_move: float
-    max_move_joint: int
-    call_time: float
-
-    @property
-    def passed(self) -> bool:
-        """Usable: six finite angles inside the limits that reproduce the pose."""
-        return not self.problem
-
-
-def call_timed(fn: Callable[..., Any], T: FloatArray, q_ref: FloatArray) -> tuple[Any, float]:
-    """Call ``fn(T, q_ref)`` on copies of the inputs; return ``(result or exception, seconds)``.
-
-    ``time.perf_counter`` brackets the call only. Exceptions (and ``SystemExit``) raised by the
-    function are returned, not raised; ``KeyboardInterrupt`` propagates.
-    """
-    T_in, q_in = T.copy(), q_ref.copy()  # the user's code may write into its arguments
-    t0 = time.perf_counter()
-    try:
-        out: Any = fn(T_in, q_in)
-    except (Exception, SystemExit) as exc:
-        out = exc
-    return out, time.perf_counter() - t0
-
-
-def _as_angles(raw: Any) -> tuple[FloatArray | None, str]:
-    """``raw`` as a (6,) float array, or None and why not."""
-    try:
-        arr = np.asarray(raw, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        return None, f"returned {type(raw).__name__}, not six numbers ({_one_line(str(exc))})"
-    if arr.size != 6 or arr.squeeze().shape != (6,):
-        return None, f"returned shape {arr.shape}, not six angles"
-    arr = arr.reshape(6).copy()
-    bad = [ARM_JOINTS[j] for j in range(6) if not math.isfinite(arr[j])]
-    if bad:
-        return None, f"returned NaN or inf for {', '.join(bad)}"
-    return arr, ""
-
-
-def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int, ...]]:
-    """Move each angle outside its limits to its 2 pi twin inside them (nearest ``q_ref``).
-
-    Angles already inside the limits are kept. Returns the new angles and the joints moved.
-    """
-    g = kinematics.geometry()
-    out = q.copy()
-    moved: list[int] = []
-    for j in range(6):
-        lo, hi = g.lower[j] - LIMIT_TOL, g.upper[j] + LIMIT_TOL
-        v = float(out[j])
-        if lo <= v <= hi:
-            continue
-        base = v - TWO_PI * math.floor((v - lo) / TWO_PI)  # the twin in [lo, lo + 2 pi)
-        twins = [base + k * TWO_PI for k in range(3) if base + k * TWO_PI <= hi]
-        if twins:
-            out[j] = min(twins, key=lambda t: abs(t - float(q_ref[j])))
-            moved.append(j)
-    return out, tuple(moved)
-
-
-def _rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
-    """Angle of the rotation between ``Ra`` and ``Rb`` [rad], accurate near 0."""
-    # |Ra - Rb|_F = 2 sqrt(2) sin(angle / 2)
-    s = float(np.linalg.norm(Ra - Rb)) / (2.0 * math.sqrt(2.0))
-    return 2.0 * math.asin(min(1.0, s))
-
-
-def assess(T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0) -> Assessment:
-    """Judge one answer ``raw`` of a user's IK for pose ``T`` from ``q_ref`` (see module doc).
-
-    Args:
-        T: Requested gripper_link pose (4x4).
-        q_ref: Joint state passed to the function [rad].
-        raw: What the function returned, or the exception it raised.
-        call_time: Wall-clock time of the call [s].
-    """
-    nan = math.nan
-
-    def unusable(problem: str, error: str = "", none: bool = False) -> Assessment:
-        return Assessment(None, error, problem, none, nan, nan, nan, False, (), nan, -1, call_time)
-
-    if isinstance(raw, BaseException):
-        text = _describe_exception(raw)
-        return unusable(f"raised {text}", error=text)
-    if raw is None:
-        return unusable("returned None (unreachable)", none=True)
-    q, why = _as_angles(raw)
-    if q is None:
-        return unusable(why)
-    q, wrapped = into_limits(q, q_ref)
-    g = kinematics.geometry()
-    outside = [
-        j for j in range(6) if not (g.lower[j] - LIMIT_TOL <= q[j] <= g.upper[j] + LIMIT_TOL)
-    ]
-    Tq = kinematics.forward(q)
-    pos_err = float(np.linalg.norm(Tq[:3, 3] - T[:3, 3]))
-    ori_err = _rotation_angle(Tq[:3, :3], T[:3, :3])
-    wc_err = float(np.linalg.norm((Tq[:3, 3] - g.dg * Tq[:3, 0]) - (T[:3, 3] - g.dg * T[:3, 0])))
-    move = np.abs(q - q_ref)
-    j_move = int(np.argmax(move))
-    problem = ""
-    if outside:
-        j = outside[0]
-        problem = (
-            f"returned {ARM_JOINTS[j]} = {math.degrees(q[j]):.1f} deg, outside its limits "
-            f"[{math.degrees(g.lower[j]):.0f}, {math.degrees(g.upper[j]):.0f}] deg"
-        )
-    elif pos_err > POSITION_TOL or ori_err > ORIENTATION_TOL:
-        problem = (
-            f"returned q {np.round(q, 4).tolist()} that misses the pose by "
-            f"{1000 * pos_err:.3g} mm and {1000 * ori_err:.3g} mrad (wrist centre "
-            f"{1000 * wc_err:.3g} mm off; allowed {1000 * POSITION_TOL:g} mm, "
-            f"{1000 * ORIENTATION_TOL:g} mrad)"
-        )
-    return Assessment(
-        q,
-        "",
-        problem,
-        False,
-        pos_err,
-        ori_err,
-        wc_err,
-        not outside,
-        wrapped,
-        float(move[j_move]),
-        j_move,
-        call_time,
-    )
-
-
-def branch_change(q: FloatArray, q_ref: FloatArray, threshold: float = MAX_LINE_STEP) -> str:
-    """Name the jump from ``q_ref`` to ``q`` when a joint moves more than ``threshold`` [rad].
-
-    Returns "" (no jump), "2pi jump" (every large move is a whole turn), "q4/q6 split" (only
-    joints 4 and 6 move, at the wrist singularity q5 = 0, where only q4 + q6 counts), "wrist
-    flip" (only joints 4-6 move much) or "arm branch change" (joint 1, 2 or 3 moves much).
-    """
-    qa = np.asarray(q, dtype=np.float64)
-    d = qa - np.asarray(q_ref, dtype=np.float64)
-    big = np.flatnonzero(np.abs(d) > threshold)
-    if not len(big):
-        return ""
-    wrapped = np.abs(np.remainder(d[big] + math.pi, TWO_PI) - math.pi)
-    if np.all(wrapped <= threshold):
-        return "2pi jump"
-    if set(big.tolist()) <= {3, 5} and abs(math.sin(qa[4])) < 1e-3:
-        return "q4/q6 split"
-    if np.all(big >= 3):
-        return "wrist flip"
-    return "arm branch change"
-
-
-# --------------------------------------------------------------------------- for the planner
-@dataclass
-class CallStats:
-    """Calls of a user's IK function and their wall-clock times [s]."""
-
-    calls: int = 0
-    total: float = 0.0
-    max: float = 0.0
-
-    def add(self, seconds: float) -> None:
-        """Count one call of ``seconds`` [s]."""
-        self.calls += 1
-        self.total += seconds
-        self.max = max(self.max, seconds)
-
-    @property
-    def mean(self) -> float:
-        """Mean time per call [s] (0 before the first call)."""
-        return self.total / self.calls if self.calls else 0.0
-
-
-def _pose_text(T: FloatArray) -> str:
-    return str(np.round(T[:3, 3], 3).tolist())
-
-
-class CheckedIk:
-    """A user's IK function as the planner calls it: every answer checked, every call timed.
-
-    Args:
-        user: The loaded function.
-    """
-
-    def __init__(self, user: UserIk) -> None:
-        self.user = user
-        self.stats = CallStats()
-
-    def solve(
-        self, T: FloatArray, q_ref: FloatArray, what: str, max_step: float | None = None
-    ) -> FloatArray:
-        """The user's answer for ``T`` from ``q_ref``, or an error naming the pose and the fault.
-
-        Args:
-            T: Requested gripper_link pose (4x4).
-            q_ref: Current (or previous sample's) joint state [rad].
-            what: Which pose this is, for the message ("standoff pose", "approach line sample
-                3", ...).
-            max_step: On straight lines, the largest joint move from ``q_ref`` [rad].
-
-        Raises:
-            IkFailedError: When the answer is unusable (see :func:`assess`) or jumps more than
-                ``max_step``.
-            UnreachablePoseError: When the function returns None and our IK agrees the pose is
-                unreachable.
-        """
-        raw, dt = call_timed(self.user.function, T, q_ref)
-        self.stats.add(dt)
-        a = assess(T, q_ref, raw, dt)
-        where = f"{what} {_pose_text(T)}"
-        if a.returned_none:
-            try:
-                q_ours = kinematics.nearest(T, q_ref)
-            except UnreachablePoseError as exc:
-                raise UnreachablePoseError(f"{where}: {exc}") from None
-            raise IkFailedError(
-                f"{where}: {self.user.spec} returned None (unreachable), but the pose is "
-                f"reachable, e.g. q = {np.round(q_ours, 3).tolist()}"
-            )
-        if not a.passed:
-            raise IkFailedError(f"{where}: {self.user.spec} {a.problem}")
-        assert a.q is not None
-        if max_step is not None and a.max_move > max_step:
-            kind = branch_change(a.q, q_ref, max_step) or "jump"
-            raise IkFailedError(
-                f"{where}: {self.user.spec} moves {ARM_JOINTS[a.max_move_joint]} by "
-                f"{a.max_move:.2f} rad from the previous sample (limit {max_step} rad per "
-                f"sample): {kind}; pick the solution nearest q_ref"
-            )
-        return a.q
-
-    def line_ik(self, what: str) -> Callable[[FloatArray, FloatArray], FloatArray]:
-        """``ik(T, q_prev)`` for :func:`~kr210_sim.plan.trajectory.plan_cartesian_line`: every
-        sample
-        checked, including the :data:`MAX_LINE_STEP` jump check, and numbered in messages."""
-        sample = 0
-
-        def ik(T: FloatArray, q_prev: FloatArray) -> FloatArray:
-            nonlocal sample
-            sample += 1
-            return self.solve(T, q_prev, f"{what} sample {sample}", max_step=MAX_LINE_STEP)
-
-        return ik
-
-    def summary(self) -> dict[str, Any]:
-        """The report's ``ik`` block: SPEC, calls and the wall time per call [s]."""
-        s = self.stats
-        return {
-            "spec": self.user.spec,
-            "calls": s.calls,
-            "wall_time_s": {"per_call_mean": s.mean, "per_call_max": s.max, "total": s.total},
-        }

@@ -27,7 +27,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.mjcf import CellHandles
+from kr210_sim.cell.handles import CellHandles
 
 import mujoco  # isort: skip
 
@@ -154,7 +154,7 @@ class Cell:
     """The simulated cell: model, data, handles and the servo gains read from the model.
 
     Args:
-        model: The compiled cell model (see :func:`kr210_sim.cell.mjcf.load_model`).
+        model: The compiled cell model (see :func:`kr210_sim.cell.load.load_model`).
     """
 
     def __init__(self, model: mujoco.MjModel) -> None:

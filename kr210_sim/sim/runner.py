@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.mjcf import load_model
+from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import (
     ConfigError,

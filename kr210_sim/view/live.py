@@ -29,8 +29,7 @@ from typing import Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.mjcf import load_model
-from kr210_sim.cell.toml import model_for
+from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.errors import ConfigError
 from kr210_sim.jobs import check_outputs, run_cycles, runner_report
 from kr210_sim.media.video import overlay_lines
