@@ -83,7 +83,10 @@ if "mujoco" not in sys.modules:  # else whoever imported mujoco first keeps thei
 
     mujoco.set_mju_user_warning(_log_mujoco_warning)
 
-__version__ = "0.1.0"
+from kr210_sim.util.versions import package_version  # noqa: E402
+
+#: The package version (from the installed metadata: pyproject.toml is the one place it is set).
+__version__ = package_version()
 
 from kr210_sim.errors import (  # noqa: E402 (after the MUJOCO_GL choice)
     ConfigError,

@@ -35,8 +35,8 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, TextIO
 
 from kr210_sim.errors import ConfigError, VideoFailedError
-from kr210_sim.score.report import report_json
 from kr210_sim.util.interrupts import Interrupted
+from kr210_sim.util.outputs import report_json
 
 if TYPE_CHECKING:
     from kr210_sim.media.video import VideoSettings

@@ -354,7 +354,7 @@ def _view_replay(args: argparse.Namespace, settings: Any) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from kr210_sim.cell.load import model_for
     from kr210_sim.eval.evaluate import EvalConfig, evaluate
-    from kr210_sim.score.report import check_writable
+    from kr210_sim.util.outputs import check_writable
 
     config = EvalConfig(
         episodes=args.episodes,

@@ -34,10 +34,16 @@ from kr210_sim.media.recording import (
 from kr210_sim.media.render_pool import RenderPool, default_workers
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.score.report import build_report, cycle_line, write_json_atomic
+from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
 from kr210_sim.util.interrupts import signal_name
-from kr210_sim.util.outputs import check_distinct, check_folder, check_writable, is_stream
+from kr210_sim.util.outputs import (
+    check_distinct,
+    check_folder,
+    check_writable,
+    is_stream,
+    write_json_atomic,
+)
 from kr210_sim.util.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.util.progress import VideoProgress
 

@@ -13,8 +13,13 @@ from pathlib import Path
 import pytest
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.score.report import write_json_atomic
-from kr210_sim.util.outputs import atomic_path, check_distinct, check_folder, check_writable
+from kr210_sim.util.outputs import (
+    atomic_path,
+    check_distinct,
+    check_folder,
+    check_writable,
+    write_json_atomic,
+)
 
 
 @pytest.fixture

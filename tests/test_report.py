@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.score.report import strip_wall, summarise, write_json_atomic
+from kr210_sim.score.report import strip_wall, summarise
+from kr210_sim.util.outputs import write_json_atomic
 
 
 def test_atomic_write_replaces_whole_file(tmp_path: Path) -> None:

@@ -109,7 +109,7 @@ def run_chunk(
         library versions of the process that ran them (the driver refuses mixed versions, which
         would break the episodes' purity).
     """
-    from kr210_sim.score.report import versions
+    from kr210_sim.util.versions import versions
 
     return {
         "records": [record_of(i, s, randomize, scene, ik) for i, s in jobs],

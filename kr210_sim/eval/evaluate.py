@@ -237,7 +237,7 @@ class _Bar:
 
 def _identity(config: EvalConfig) -> dict[str, Any]:
     """What the episode records depend on (the episodes file's header)."""
-    from kr210_sim.score.report import versions
+    from kr210_sim.util.versions import versions
 
     return {
         "seed": config.seed,
@@ -286,7 +286,7 @@ def evaluate(
         ConfigError: Bad settings, an episodes file of another evaluation, Ray missing.
         EpisodeError: An episode raised (a bug) or a worker died.
     """
-    from kr210_sim.score.report import check_writable
+    from kr210_sim.util.outputs import check_writable
 
     n = config.episodes
     identity = _identity(config)
@@ -347,7 +347,7 @@ def evaluate(
         execution = {**backend.execution(), "wall_time_s": wall, "resumed_episodes": resumed}
         payload = _report(config, summary, caught is not None, execution, identity, log_path)
         if report is not None:
-            from kr210_sim.score.report import write_json_atomic
+            from kr210_sim.util.outputs import write_json_atomic
 
             write_json_atomic(report, payload)
     return EvalOutcome(payload, caught, report, log_path)

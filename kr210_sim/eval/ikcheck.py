@@ -244,7 +244,7 @@ def build_report(
     spec: str, n_random: int, seed: int, records: list[dict[str, Any]], wall_time: float
 ) -> dict[str, Any]:
     """The JSON-ready report of a check."""
-    from kr210_sim.score.report import versions
+    from kr210_sim.util.versions import versions
 
     return {
         "kind": "kr210_sim.ik_check",
@@ -410,7 +410,7 @@ def run_check(
     Raises:
         ConfigError: When the report or plot paths cannot be written (checked first).
     """
-    from kr210_sim.score.report import check_writable, write_json_atomic
+    from kr210_sim.util.outputs import check_writable, write_json_atomic
 
     if report_path is not None:
         check_writable(report_path)

@@ -164,7 +164,7 @@ class RayBackend:
             Kr210SimError: When a chunk is lost for good (retries exhausted) or a node runs
                 other library versions than this process.
         """
-        from kr210_sim.score.report import versions
+        from kr210_sim.util.versions import versions
 
         ray = self._ray
         assert ray is not None, "use RayBackend as a context manager"

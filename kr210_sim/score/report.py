@@ -9,33 +9,25 @@ determinism checks can drop them.
 
 from __future__ import annotations
 
-import json
-import platform
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, is_dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from kr210_sim import __version__
 from kr210_sim.sim.runner import CycleResult, RunConfig
 from kr210_sim.sim.targets import Event
 from kr210_sim.util.interrupts import signal_name
-from kr210_sim.util.outputs import check_writable, write_text_atomic
+from kr210_sim.util.versions import versions
 
 __all__ = [
     "WALL_KEYS",
     "build_report",
-    "check_writable",
     "cycle_line",
-    "report_json",
     "strip_wall",
     "summarise",
     "summary_table",
-    "versions",
-    "write_json_atomic",
 ]
 
 #: Keys whose values depend on the machine or on how the work was spread over processes, not on
@@ -53,21 +45,6 @@ WALL_KEYS = frozenset(
         "planning_cpu_time_s",
     }
 )
-
-
-def versions() -> dict[str, str]:
-    """Versions of the package, Python and the libraries that shape the results."""
-    import mujoco
-    import ruckig
-
-    out = {
-        "kr210_sim": __version__,
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "mujoco": mujoco.__version__,
-    }
-    out["ruckig"] = getattr(ruckig, "__version__", "unknown")
-    return out
 
 
 def summarise(results: Sequence[CycleResult], wall_time: float | None = None) -> dict[str, Any]:
@@ -167,17 +144,6 @@ def build_report(
         else None,
         "versions": versions(),
     }
-
-
-def report_json(payload: dict[str, Any]) -> str:
-    """The text a report file holds: JSON with sorted keys, 2-space indent, a final newline."""
-    return json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
-    """Write ``payload`` as JSON (:func:`report_json`) to ``path`` atomically (see
-    :mod:`kr210_sim.util.outputs` for links, devices and file modes)."""
-    return write_text_atomic(path, report_json(payload))
 
 
 def strip_wall(obj: Any) -> Any:

@@ -17,11 +17,13 @@ Every file a command writes goes through here:
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import stat
 import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 from kr210_sim.errors import ConfigError
 
@@ -267,3 +269,14 @@ def write_bytes_atomic(path: Path | str, data: bytes) -> Path:
     with atomic_path(p) as tmp:
         tmp.write_bytes(data)
     return p
+
+
+def report_json(payload: dict[str, Any]) -> str:
+    """The text a report file holds: JSON with sorted keys, 2-space indent, a final newline."""
+    return json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def write_json_atomic(path: Path | str, payload: dict[str, Any]) -> Path:
+    """Write ``payload`` as JSON (:func:`report_json`) to ``path`` atomically (see
+    :func:`write_text_atomic` for links, devices and file modes)."""
+    return write_text_atomic(path, report_json(payload))

@@ -35,10 +35,10 @@ from kr210_sim.jobs import check_outputs, run_cycles, runner_report
 from kr210_sim.media.video import overlay_lines
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.score.report import write_json_atomic
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.interrupts import exit_code, signal_name
+from kr210_sim.util.outputs import write_json_atomic
 from kr210_sim.view.studio import LiveViewer, ViewerClosed, ViewerSettings
 
 FloatArray = npt.NDArray[np.float64]
