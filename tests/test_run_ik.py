@@ -74,3 +74,17 @@ def test_a_failure_after_the_grasp_releases_the_target_and_the_run_goes_on() -> 
     assert r2.success, r2.detail
     report = build_report(runner.config, runner.results, 1.0)
     assert report["summary"]["failures"] == {"ik_failed": 1}
+
+
+def test_an_answer_that_raises_on_float_is_that_cycles_ik_failed() -> None:
+    class NeedsGrad:  # a tensor that needs grad raises RuntimeError on float()
+        def __float__(self) -> float:
+            raise RuntimeError("needs grad")
+
+    def tensor_ik(T: np.ndarray, q_ref: np.ndarray) -> list[NeedsGrad]:
+        return [NeedsGrad()] * 6
+
+    runner = Runner(RunConfig(cycles=1), ik=UserIk("test:tensor_ik", tensor_ik))
+    r = runner.run_cycle(1, 5)
+    assert r.reason == "ik_failed"
+    assert "returned list, not six numbers (RuntimeError: needs grad)" in r.detail

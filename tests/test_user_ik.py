@@ -118,6 +118,16 @@ def test_bad_module_specs(spec: str, message: str) -> None:
 
 
 # ----------------------------------------------------------------------------- judging
+class _NeedsGrad:
+    """Stands for a tensor that needs grad: ``float()`` and ``__array__`` raise RuntimeError."""
+
+    def __float__(self) -> float:
+        raise RuntimeError("needs grad")
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        raise RuntimeError("needs grad")
+
+
 def test_a_correct_answer_passes_with_exact_errors() -> None:
     T = kinematics.forward(Q)
     a = assess(T, Q, list(Q))
@@ -135,6 +145,12 @@ def test_a_correct_answer_passes_with_exact_errors() -> None:
         ("abcdef", "returned str, not six numbers"),
         ([0.3, 0.2, math.nan, 0.5, 0.6, -0.4], "returned NaN or inf for joint_3"),
         ([0.3, 1.6, -0.3, 0.5, 0.6, -0.4], "returned joint_2 = 91.7 deg, outside its limits"),
+        # Values that raise on float(), as a tensor that needs grad does: unusable, not a crash.
+        ([_NeedsGrad()] * 6, "returned list, not six numbers (RuntimeError: needs grad)"),
+        (_NeedsGrad(), "returned _NeedsGrad, not six numbers (RuntimeError: needs grad)"),
+        # Far outside the limits: no 2 pi "twin" brings 1e300 rad back (rounding noise).
+        ([1e300] * 6, "returned joint_1 = 5.73e+301 deg, outside its limits"),
+        ([0.0, 0.0, 0.0, 3.0 + 4 * math.pi, 0.0, 0.0], "returned joint_4 = 891.9 deg, outside"),
     ],
 )
 def test_unusable_answers(raw: Any, problem: str) -> None:
@@ -179,9 +195,21 @@ def test_twins_outside_the_limits_are_wrapped_inside_and_others_kept() -> None:
 
 def test_of_two_twins_inside_the_limits_the_one_nearest_q_ref_is_taken() -> None:
     ref = np.array([0.0, 0, 0, 3.0, 0, 0])
-    q = np.array([0.0, 0, 0, 3.0 + 4 * math.pi, 0, 0])  # 2 turns out: twins 3.0 and 3.0 - 2 pi
+    q = np.array([0.0, 0, 0, 3.0 + 2 * math.pi, 0, 0])  # 1 turn out: twins 3.0 and 3.0 - 2 pi
     out, moved = into_limits(q, ref)
     assert moved == (3,) and out[3] == pytest.approx(3.0)
+    for v in (-3.0 - 2 * math.pi, -3.0 + 4 * math.pi):
+        assert into_limits(np.array([0.0, 0, 0, v, 0, 0]), -ref)[0][3] == pytest.approx(-3.0)
+
+
+def test_only_angles_within_one_turn_of_the_limits_are_brought_back() -> None:
+    zero = np.zeros(6)
+    for far in (1e300, -1e300, 3.0 + 4 * math.pi, math.radians(350) + 2 * math.pi + 1e-3):
+        q = np.array([0.0, 0, 0, far, 0, 0])
+        out, moved = into_limits(q, zero)
+        assert moved == () and out[3] == far
+    a = assess(kinematics.forward(zero), zero, [1e300] * 6)  # was passed as the zero pose
+    assert not a.passed and a.q is not None and not a.within_limits
 
 
 def test_branch_changes_are_named() -> None:

@@ -1,8 +1,9 @@
 """Judge every answer a user's IK gives, with *our* forward kinematics, before anything moves.
 
-* 2 pi twins: an angle outside its joint's limits is replaced by its 2 pi twin when one lies
-  inside (the twin nearest ``q_ref``), because a student's ``atan2`` answers lie in (-pi, pi]
-  while joints 1, 3, 4 and 6 reach past +-pi. An angle inside its limits is taken as given.
+* 2 pi twins: an angle outside its joint's limits, but within one turn of them, is replaced by
+  its 2 pi twin when one lies inside (the twin nearest ``q_ref``), because a student's ``atan2``
+  answers lie in (-pi, pi] while joints 1, 3, 4 and 6 reach past +-pi. An angle inside its
+  limits is taken as given; one further out (``1e300``) stays outside and is refused.
 * The answer must be six finite numbers inside the limits (:data:`LIMIT_SLACK` slack), and
   ``forward(q)`` must reproduce ``T`` within :data:`POSITION_TOL` and :data:`ORIENTATION_TOL`.
 * On straight-line moves (samples ``lin_step`` = 1 cm apart), no joint may move more than
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.errors import IkFailedError, UnreachablePoseError, one_line
+from kr210_sim.errors import IkFailedError, UnreachablePoseError
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import ARM_JOINTS
 from kr210_sim.robot.kinematics import LIMIT_SLACK, TWO_PI
@@ -102,11 +103,15 @@ def call_timed(fn: Callable[..., Any], T: FloatArray, q_ref: FloatArray) -> tupl
 
 
 def _as_angles(raw: Any) -> tuple[FloatArray | None, str]:
-    """``raw`` as a (6,) float array, or None and why not."""
+    """``raw`` as a (6,) float array, or None and why not.
+
+    Whatever converting raises (a tensor that needs grad raises RuntimeError on ``float()``) is
+    the reason, never an exception: the answer is unusable, the run goes on.
+    """
     try:
         arr = np.asarray(raw, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        return None, f"returned {type(raw).__name__}, not six numbers ({one_line(str(exc))})"
+    except Exception as exc:
+        return None, f"returned {_type_name(raw)}, not six numbers ({_exception_text(exc)})"
     if arr.size != 6 or arr.squeeze().shape != (6,):
         return None, f"returned shape {arr.shape}, not six angles"
     arr = arr.reshape(6).copy()
@@ -116,10 +121,27 @@ def _as_angles(raw: Any) -> tuple[FloatArray | None, str]:
     return arr, ""
 
 
-def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int, ...]]:
-    """Move each angle outside its limits to its 2 pi twin inside them (nearest ``q_ref``).
+def _type_name(raw: Any) -> str:
+    try:
+        return type(raw).__name__
+    except Exception:  # pragma: no cover - a metaclass that raises
+        return "an object"
 
-    Angles already inside the limits are kept. Returns the new angles and the joints moved.
+
+def _exception_text(exc: BaseException) -> str:
+    """``describe_exception`` for exceptions whose own ``str`` may raise."""
+    try:
+        return describe_exception(exc)
+    except Exception:
+        return _type_name(exc)
+
+
+def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int, ...]]:
+    """Move each angle outside its limits, but within one turn of them, to its 2 pi twin
+    inside them (nearest ``q_ref``).
+
+    Angles already inside the limits are kept, and so are angles more than one turn outside
+    (``1e300``: its "twin" would be rounding noise). Returns the new angles and the joints moved.
     """
     g = kinematics.geometry()
     out = q.copy()
@@ -127,7 +149,7 @@ def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int
     for j in range(6):
         lo, hi = g.lower[j] - LIMIT_SLACK, g.upper[j] + LIMIT_SLACK
         v = float(out[j])
-        if lo <= v <= hi:
+        if lo <= v <= hi or not lo - TWO_PI <= v <= hi + TWO_PI:
             continue
         base = v - TWO_PI * math.floor((v - lo) / TWO_PI)  # the twin in [lo, lo + 2 pi)
         twins = [base + k * TWO_PI for k in range(3) if base + k * TWO_PI <= hi]
@@ -135,6 +157,12 @@ def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int
             out[j] = min(twins, key=lambda t: abs(t - float(q_ref[j])))
             moved.append(j)
     return out, tuple(moved)
+
+
+def _degrees(angle: float) -> str:
+    """``angle`` [rad] in degrees, one decimal (three significant digits when huge)."""
+    d = math.degrees(angle)
+    return f"{d:.1f}" if abs(d) < 1e6 else f"{d:.3g}"
 
 
 def _rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
@@ -159,7 +187,7 @@ def assess(T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0) -
         return Assessment(None, error, problem, none, nan, nan, nan, False, (), nan, -1, call_time)
 
     if isinstance(raw, BaseException):
-        text = describe_exception(raw)
+        text = _exception_text(raw)
         return unusable(f"raised {text}", error=text)
     if raw is None:
         return unusable("returned None (unreachable)", none=True)
@@ -181,7 +209,7 @@ def assess(T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0) -
     if outside:
         j = outside[0]
         problem = (
-            f"returned {ARM_JOINTS[j]} = {math.degrees(q[j]):.1f} deg, outside its limits "
+            f"returned {ARM_JOINTS[j]} = {_degrees(q[j])} deg, outside its limits "
             f"[{math.degrees(g.lower[j]):.0f}, {math.degrees(g.upper[j]):.0f}] deg"
         )
     elif pos_err > POSITION_TOL or ori_err > ORIENTATION_TOL:
