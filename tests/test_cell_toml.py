@@ -84,6 +84,37 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             _with("mass = [0.02, 0.5]", "mass = [0.5, 0.02]"),
             "[target.randomize] mass: expected [low, high]",
         ),
+        # Every size is bounded (a 1e300 m shelf hung every compile), and nothing MuJoCo would
+        # reject gets through to it: the message names the key and the bound.
+        (
+            _with("height = 3.0", "height = 1e300"),
+            "[shelf] height: expected a positive number [m] from 0.001 to 20, got 1e+300",
+        ),
+        (
+            _with("radius = 0.05", "radius = 1e-300"),
+            "[target] radius: expected a positive number [m] from 0.001 to 20, got 1e-300",
+        ),
+        (
+            _with("position = [2.7, 0.0]", "position = [1e300, 0.0]"),
+            "[shelf] position: expected a list of 2 numbers [m], each from -20 to 20",
+        ),
+        (
+            _with("mass = 0.05", "mass = 1e200"),
+            "[target] mass: expected a positive number [kg] from 0.0001 to 100",
+        ),
+        (
+            _with("radius = [0.04, 0.06]", "radius = [0.0, 0.06]"),
+            "[target.randomize] radius: expected [low, high] with 0.001 <= low <= high <= 20",
+        ),
+        (
+            _with('name = "published"', 'name = "two\\nlines"'),
+            "name: expected 1 to 64 printable characters",
+        ),
+        (
+            _with('name = "published"', 'name = "' + "x" * 100 + '"'),
+            "name: expected 1 to 64 printable characters without leading or trailing spaces, "
+            "got '" + "x" * 64 + "'...",
+        ),
     ],
 )
 def test_bad_cell_files_are_one_line_and_exit_2(
@@ -101,6 +132,41 @@ def test_bad_cell_files_are_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "r.json").exists()
+
+
+def test_one_row_with_an_empty_row_pitch_list_loads() -> None:
+    text = _with("rows = 3", "rows = 1").replace("row_pitch = [0.767, 0.766]", "row_pitch = []")
+    cell = parse_cell(text, "one_row.toml")
+    assert cell.shelf.rows == 1 and cell.shelf.row_pitch == ()
+
+
+def test_a_fifo_or_a_huge_file_as_cell_is_refused_without_blocking(tmp_path: Path) -> None:
+    import os
+    import threading
+
+    fifo = tmp_path / "cell.toml"
+    os.mkfifo(fifo)
+    errors: list[str] = []
+
+    def load() -> None:
+        try:
+            load_cell(fifo)
+        except ConfigError as exc:
+            errors.append(str(exc))
+
+    worker = threading.Thread(target=load, daemon=True)
+    worker.start()
+    worker.join(timeout=10)
+    if worker.is_alive():  # it blocked in open(): give it a writer so the test ends
+        with open(fifo, "w") as fh:
+            fh.write("")
+        worker.join(timeout=10)
+        pytest.fail("load_cell blocked on a FIFO")
+    assert errors == [f"cell file {fifo} is a FIFO, not a regular file: give a file"]
+    huge = tmp_path / "huge.toml"
+    huge.write_text('name = "' + "x" * 2_000_000 + '"\n' + PUBLISHED.split("\n", 4)[-1])
+    with pytest.raises(ConfigError, match="is larger than 1,000,000 bytes"):
+        load_cell(huge)
 
 
 def test_cell_file_errors_for_the_file_itself(

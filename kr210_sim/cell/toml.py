@@ -29,12 +29,27 @@ from kr210_sim.cell.spec import (
     TargetSpec,
 )
 from kr210_sim.errors import ConfigError
+from kr210_sim.util.inputs import read_input
 from kr210_sim.util.paths import SCENES_DIR
 
 #: The published cell.
 PUBLISHED_CELL = SCENES_DIR / "cells" / "published.toml"
 #: Most rows and columns a shelf may have.
 MAX_GRID = 5
+#: Largest length and largest |coordinate| in a cell file [m]: a cell is a room (a shelf 1e300 m
+#: high hung every compile in a loop over its height).
+MAX_LENGTH = 20.0
+#: Smallest size of anything in a cell file [m] (MuJoCo rejects a 1e-300 m radius).
+MIN_LENGTH = 1e-3
+#: Bounds of the target's mass [kg] and friction coefficient.
+MASS_RANGE = (1e-4, 100.0)
+FRICTION_RANGE = (1e-3, 10.0)
+#: Bounds of every yaw [deg].
+YAW_RANGE = (-360.0, 360.0)
+#: Longest cell name (it heads tables and reports) [characters].
+MAX_NAME = 64
+#: Largest cell file [bytes].
+MAX_FILE_BYTES = 1_000_000
 
 _SECTIONS = {"name", "shelf", "bin", "target", "obstacles"}
 _SHELF_KEYS = {
@@ -82,13 +97,19 @@ class _Reader:
         return self.table[key]
 
     def number(
-        self, key: str, default: float | None = None, positive: bool = False, lo: float = -1e9
+        self,
+        key: str,
+        default: float | None = None,
+        bounds: tuple[float, float] = (MIN_LENGTH, MAX_LENGTH),
+        unit: str = "[m]",
     ) -> float:
+        """A number within ``bounds`` (default: a positive length [m] up to
+        :data:`MAX_LENGTH`)."""
         v = self._get(key, default)
-        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-        if not ok or (positive and v <= 0) or (not positive and v < lo):
-            what = "a positive number" if positive else f"a number >= {lo:g}"
-            self.fail(key, what + (" [m]" if "yaw" not in key else " [deg]"), v)
+        lo, hi = bounds
+        if not _is_number(v) or not lo <= v <= hi:
+            what = "a positive number" if lo > 0 else "a number"
+            self.fail(key, f"{what} {unit} from {lo:g} to {hi:g}", v)
         return float(v)
 
     def integer(self, key: str, lo: int, hi: int) -> int:
@@ -98,27 +119,30 @@ class _Reader:
         return int(v)
 
     def vector(self, key: str, n: int, positive: bool = False, default: Any = None) -> list[float]:
+        """``n`` numbers: positive lengths (``positive``) or coordinates, each within
+        :data:`MAX_LENGTH` [m]."""
         v = self._get(key, default)
-        ok = (
-            isinstance(v, list)
-            and len(v) == n
-            and all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-                for x in v
-            )
-        )
-        if not ok or (positive and min(v) <= 0):
+        lo, hi = (MIN_LENGTH, MAX_LENGTH) if positive else (-MAX_LENGTH, MAX_LENGTH)
+        ok = isinstance(v, list) and len(v) == n and all(_is_number(x) for x in v)
+        if not ok or not all(lo <= x <= hi for x in v):
             kind = "positive numbers" if positive else "numbers"
-            self.fail(key, f"a list of {n} {kind} [m]", v)
+            self.fail(key, f"a list of {n} {kind} [m], each from {lo:g} to {hi:g}", v)
         return [float(x) for x in v]
 
     def range_(
-        self, key: str, default: tuple[float, float], lo: float = 0.0
+        self, key: str, default: tuple[float, float], bounds: tuple[float, float]
     ) -> tuple[float, float]:
-        v = self.vector(key, 2, default=list(default))
-        if v[0] > v[1] or v[0] < lo:
-            self.fail(key, f"[low, high] with {lo:g} <= low <= high", v)
-        return (v[0], v[1])
+        v = self._get(key, list(default))
+        lo, hi = bounds
+        ok = isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
+        if not ok or not lo <= v[0] <= v[1] <= hi:
+            self.fail(key, f"[low, high] with {lo:g} <= low <= high <= {hi:g}", v)
+        return (float(v[0]), float(v[1]))
+
+
+def _is_number(v: Any) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
@@ -143,8 +167,18 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             f"(expected: {', '.join(sorted(_SECTIONS))})"
         )
     name = doc.get("name", path.stem)
-    if not isinstance(name, str) or not name:
-        raise ConfigError(f"{path}: name: expected a non-empty string, got {name!r}")
+    if (
+        not isinstance(name, str)
+        or not name
+        or len(name) > MAX_NAME
+        or not name.isprintable()
+        or name != name.strip()
+    ):
+        shown = name if not isinstance(name, str) or len(name) <= MAX_NAME else name[:MAX_NAME]
+        raise ConfigError(
+            f"{path}: name: expected 1 to {MAX_NAME} printable characters without leading or "
+            f"trailing spaces, got {shown!r}{'...' if shown is not name else ''}"
+        )
     for section in ("shelf", "bin"):
         if section not in doc:
             raise ConfigError(f"{path}: [{section}]: missing (required)")
@@ -160,24 +194,28 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             )
         row_pitch = tuple(s.vector("row_pitch", rows - 1, positive=True))
     else:
-        pitch = s.number("row_pitch", 0.0 if rows == 1 else None, positive=rows > 1)
+        pitch = s.number(
+            "row_pitch",
+            0.0 if rows == 1 else None,
+            (MIN_LENGTH if rows > 1 else 0.0, MAX_LENGTH),
+        )
         row_pitch = (pitch,) * (rows - 1)
-    bottom = s.number("bottom", positive=True)
+    bottom = s.number("bottom")
     top = bottom + sum(row_pitch)
     shelf = _build(
         path,
         "[shelf]",
         lambda: ShelfSpec(
             position=tuple(s.vector("position", 2)),  # type: ignore[arg-type]
-            yaw_deg=s.number("yaw_deg", 0.0, lo=-360.0),
+            yaw_deg=s.number("yaw_deg", 0.0, YAW_RANGE, "[deg]"),
             rows=rows,
             columns=columns,
-            column_pitch=s.number("column_pitch", positive=True),
+            column_pitch=s.number("column_pitch"),
             row_pitch=row_pitch,
             bottom=bottom,
-            depth=s.number("depth", positive=True),
+            depth=s.number("depth"),
             height=s.number("height", round(top + (row_pitch[-1] if row_pitch else 0.8), 9)),
-            slot_inset=s.number("slot_inset", 0.11, positive=True),
+            slot_inset=s.number("slot_inset", 0.11),
         ),
     )
     if shelf.height <= top + 0.3:
@@ -187,8 +225,8 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
 
     b = _Reader(path, "[bin]", doc["bin"], _BIN_KEYS)
     size = b.vector("size", 3, positive=True)
-    wall = b.number("wall", 0.06, positive=True)
-    floor_top = b.number("floor_top", 0.05, positive=True)
+    wall = b.number("wall", 0.06)
+    floor_top = b.number("floor_top", 0.05)
     if 2 * wall >= min(size[:2]) - 0.1:
         b.fail("size", f"outer x and y larger than two walls ({2 * wall:g} m) + 0.1 m", size)
     if floor_top >= size[2]:
@@ -203,21 +241,22 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
     t = _Reader(path, "[target]", doc.get("target", {}), _TARGET_KEYS)
     d = TargetSpec()
     target = TargetSpec(
-        radius=t.number("radius", d.radius, positive=True),
-        length=t.number("length", d.length, positive=True),
-        mass=t.number("mass", d.mass, positive=True),
-        friction=t.number("friction", d.friction, positive=True),
+        radius=t.number("radius", d.radius),
+        length=t.number("length", d.length),
+        mass=t.number("mass", d.mass, MASS_RANGE, "[kg]"),
+        friction=t.number("friction", d.friction, FRICTION_RANGE, ""),
     )
     r = _Reader(path, "[target.randomize]", t.table.get("randomize", {}), _RANDOM_KEYS)
     dr = RandomizationSpec()
-    yaw = r.range_("yaw_deg", (-180.0, 180.0), lo=-360.0)
+    yaw = r.range_("yaw_deg", (-180.0, 180.0), YAW_RANGE)
+    lengths = (MIN_LENGTH, MAX_LENGTH)
     randomization = RandomizationSpec(
-        xy_offset=r.number("xy_offset", dr.xy_offset, lo=0.0),
+        xy_offset=r.number("xy_offset", dr.xy_offset, (0.0, MAX_LENGTH)),
         yaw=(math.radians(yaw[0]), math.radians(yaw[1])),
-        radius=r.range_("radius", dr.radius),
-        length=r.range_("length", dr.length),
-        mass=r.range_("mass", dr.mass),
-        friction=r.range_("friction", dr.friction),
+        radius=r.range_("radius", dr.radius, lengths),
+        length=r.range_("length", dr.length, lengths),
+        mass=r.range_("mass", dr.mass, MASS_RANGE),
+        friction=r.range_("friction", dr.friction, FRICTION_RANGE),
     )
 
     raw_obstacles = doc.get("obstacles", [])
@@ -232,7 +271,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             ObstacleSpec(
                 position=tuple(o.vector("position", 3)),  # type: ignore[arg-type]
                 size=tuple(o.vector("size", 3, positive=True)),  # type: ignore[arg-type]
-                yaw_deg=o.number("yaw_deg", 0.0, lo=-360.0),
+                yaw_deg=o.number("yaw_deg", 0.0, YAW_RANGE, "[deg]"),
             )
         )
     sha = hashlib.sha256(text.encode()).hexdigest()
@@ -350,11 +389,10 @@ def load_cell(path: Path | str) -> CellConfig:
     path = Path(path)
     if path.is_dir():
         raise ConfigError(f"--cell {path} is a folder: give a .toml file")
+    data = read_input(path, "cell file", MAX_FILE_BYTES)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"cell file not found: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
         raise ConfigError(f"cannot read cell file {path}: {exc}") from exc
     return parse_cell(text, path)
 
