@@ -6,33 +6,30 @@ same run live in MuJoCo Studio), ``evaluate``, ``ik-check``, ``check``, ``demos`
 bar (or an IK failing a case), 2 a usage error or a failure with a one-line
 message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
 completed so far is still written).
+
+This module is the argument parser and the error handling; what each command does and prints is
+in :mod:`kr210_sim.commands`.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from kr210_sim import __version__
-from kr210_sim.errors import ConfigError, Kr210SimError
+from kr210_sim import __version__, commands
+from kr210_sim.commands import DEFAULT_RECORD_RATE
+from kr210_sim.errors import Kr210SimError
 from kr210_sim.util.console import SafeStream
 from kr210_sim.util.interrupts import exit_code, signal_name, terminate_as_interrupt
-from kr210_sim.util.progress import ProgressLine
-
-if TYPE_CHECKING:
-    from kr210_sim.api import RunReport
-    from kr210_sim.media.video import VideoSettings
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
 DEFAULT_DEMOS = Path("demos/pick_place.hdf5")
-DEFAULT_RECORD_RATE = 30
 
 
 class _Parser(argparse.ArgumentParser):
@@ -107,165 +104,6 @@ def _fps(text: str) -> int:
     return value
 
 
-def _load_ik(spec: str | None) -> Any:
-    """The user's IK for ``--ik SPEC`` (None without one); a bad SPEC is a one-line error here,
-    before anything runs."""
-    if spec is None:
-        return None
-    from kr210_sim.robot.user_ik import load_ik
-
-    return load_ik(spec)
-
-
-def _video_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The video options given on the command line (VideoSettings holds the defaults)."""
-    return {
-        k: v
-        for k, v in (
-            ("cameras", tuple(args.camera) if args.camera else None),
-            ("width", args.width),
-            ("height", args.height),
-            ("fps", args.fps),
-            ("quality", args.quality),
-        )
-        if v is not None
-    }
-
-
-def _cmd_run(args: argparse.Namespace) -> int:
-    from kr210_sim.api import RunInterrupted, RunReport, run
-    from kr210_sim.errors import VideoFailedError
-    from kr210_sim.media.video import VideoSettings
-
-    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
-    video = None
-    given = _video_options(args)
-    if args.video is not None:
-        video = VideoSettings(path=args.video, **given)
-    elif given:
-        raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
-    if args.render_workers is not None and video is None:
-        raise ConfigError("--render-workers needs --video PATH")
-    if args.record_rate is not None and args.record is None:
-        raise ConfigError("--record-rate needs --record PATH")
-    interrupted: RunInterrupted | None = None
-    try:
-        result = run(
-            args.cycles,
-            args.seed,
-            args.slot,
-            args.randomize,
-            ik=ik,
-            video=video,
-            plots=args.plots,
-            scene=args.scene,
-            cell=args.cell,
-            report=args.report,
-            out=sys.stdout,
-            record=args.record,
-            record_rate=args.record_rate or DEFAULT_RECORD_RATE,
-            render_workers=args.render_workers,
-        )
-    except RunInterrupted as exc:
-        interrupted, result = exc, exc.report  # type: ignore[assignment]
-    except VideoFailedError as exc:
-        result = exc.report
-    assert isinstance(result, RunReport)
-    _print_run(result, video)
-    if interrupted is not None:
-        if result.video_error is not None:
-            sys.stderr.write(f"kr210_sim: error: {result.video_error}\n")
-        return exit_code(interrupted)
-    if result.video_error is not None:
-        sys.stderr.write(f"kr210_sim: error: {result.video_error} (the report was written)\n")
-        return 2
-    summary = result.summary
-    passed = result.passed(args.min_success)
-    sys.stdout.write(
-        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
-        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
-    )
-    return 0 if passed else 1
-
-
-def _print_run(result: RunReport, video: VideoSettings | None) -> None:
-    """The summary table and the outputs of ``run`` on stdout."""
-    from kr210_sim.score.report import summary_table
-
-    out = sys.stdout
-    summary = dict(result.summary)
-    out.write(summary_table(summary) + "\n")
-    if "ik" in summary:
-        s, t = summary["ik"], summary["ik"]["wall_time_s"]
-        out.write(
-            f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
-            f"{1e6 * t['per_call_max']:.1f} us max per call\n"
-        )
-    out.write(f"  report: {result.path}\n")
-    if result.record_path is not None and result.record_frames:
-        size = result.record_path.stat().st_size / 1e6
-        out.write(
-            f"  recording: {result.record_path} ({result.record_frames} frames, {size:.2f} MB)\n"
-        )
-    if video is not None and result.video_error is None:
-        frames = result.video_frames
-        written = f"({frames} frames)" if frames else "not written (no frames)"
-        out.write(f"  video: {video.path} {written}\n")
-    if result.plot_paths:
-        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
-
-
-def _cmd_replay(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.load import model_at
-    from kr210_sim.media.recording import check_model, read_recording
-    from kr210_sim.media.render_pool import default_workers, render_recording
-    from kr210_sim.media.video import VideoSettings
-    from kr210_sim.util.outputs import check_distinct, check_writable, is_stream
-    from kr210_sim.util.paths import SCENE_PATH
-
-    rec = read_recording(args.recording)
-    recorded_scene = rec.meta.get("scene")
-    scene = (
-        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
-    )
-    model = model_at(scene)
-    check_model(args.recording, rec, model)
-    # Defaults: the run's own video settings when it had a video, else the video defaults.
-    made: dict[str, Any] = dict(rec.meta.get("video") or {})
-    if "cameras" in made:
-        made["cameras"] = tuple(made["cameras"])
-    given = _video_options(args)
-    fps = given.get("fps", made.get("fps", round(rec.rate)))
-    path = args.video if args.video is not None else args.recording.with_suffix(".mp4")
-    video = VideoSettings(path=path, **{**made, **given, "fps": fps})
-    check_writable(video.path)
-    if is_stream(video.path):
-        raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
-    check_distinct(
-        {"--video": video.path},
-        {"the recording": args.recording, "--scene": scene if scene is not None else SCENE_PATH},
-    )
-    workers = args.workers if args.workers is not None else default_workers()
-    line = ProgressLine(sys.stderr)
-    total = rec.frames if fps == rec.rate else None
-
-    def progress(frames: int, sim_time: float) -> None:
-        if line.due():
-            of = f"/{total}" if total else ""
-            line.show(f"replay: {frames}{of} frames  sim {sim_time:5.1f} s  {line.elapsed:4.0f} s")
-
-    frames, interrupted = render_recording(rec, model, video, workers, progress)
-    line.end(f"replay: {frames} frames in {line.elapsed:.1f} s on {workers} worker(s)")
-    written = f"({frames} frames)" if frames else "not written (no frames)"
-    sys.stdout.write(f"  video: {video.path} {written}\n")
-    if interrupted is not None:
-        sys.stderr.write(
-            f"kr210_sim: interrupted ({signal_name(interrupted)}); frames so far kept\n"
-        )
-        return exit_code(interrupted)
-    return 0
-
-
 def _speed(text: str) -> float:
     value: float = _parsed(text, float, "a number")
     _check(0.0 < value <= 1000.0, f"must be in (0, 1000], got {value}")
@@ -276,215 +114,6 @@ def _port(text: str) -> int:
     value: int = _parsed(text, int, "a port number")
     _check(0 <= value <= 65535, f"must be 0-65535, got {value}")
     return value
-
-
-def _cmd_view(args: argparse.Namespace) -> int:
-    from kr210_sim.score.report import summary_table
-    from kr210_sim.sim.runner import RunConfig
-    from kr210_sim.view.live import LiveSettings, run_joints, view_job
-    from kr210_sim.view.studio import FREE_CAMERA, ViewerSettings, has_display
-
-    mode = "window" if args.window else "web" if args.web or not has_display() else "window"
-    settings = ViewerSettings(
-        mode=mode,
-        host=args.host,
-        port=args.port,
-        camera=args.camera or FREE_CAMERA,
-        demo=args.demo,
-        joints=args.joints,
-        quality=args.quality,
-    )
-    if args.joints:
-        if args.demo:
-            raise ConfigError("--joints has no task to step through: drop --demo")
-        run_joints(settings)
-        return 0
-    if args.replay is not None:
-        return _view_replay(args, settings)
-    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
-    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
-    ik = _load_ik(args.ik)
-    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
-    out = sys.stdout
-    summary = result.report["summary"]
-    out.write(summary_table(summary) + "\n")
-    out.write(
-        f"  report: {result.report_path}\n  live pace: {result.real_time_factor:.2f}x real "
-        f"time (asked {args.speed:g}x), {result.frames} viewer updates\n"
-    )
-    if result.interrupted:
-        return result.exit_code or 130
-    passed = summary["success_rate"] >= args.min_success
-    out.write(
-        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
-        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
-    )
-    return 0 if passed else 1
-
-
-def _view_replay(args: argparse.Namespace, settings: Any) -> int:
-    """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
-    from kr210_sim.cell.load import model_at
-    from kr210_sim.media.recording import check_model, read_recording
-    from kr210_sim.view.live import LiveSettings, replay_view
-
-    if args.demo:
-        raise ConfigError("--replay plays a recording: drop --demo")
-    rec = read_recording(args.replay)
-    recorded_scene = rec.meta.get("scene")
-    scene = (
-        args.scene if args.scene is not None else Path(recorded_scene) if recorded_scene else None
-    )
-    model = model_at(scene)
-    check_model(args.replay, rec, model)
-    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
-    result = replay_view(rec, model, settings, live)
-    sys.stdout.write(
-        f"  replay: {result.frames}/{rec.frames} frames at {result.real_time_factor:.2f}x real "
-        f"time (asked {args.speed:g}x)\n"
-    )
-    if result.interrupted is not None:
-        if isinstance(result.interrupted, KeyboardInterrupt):
-            return exit_code(result.interrupted)
-        sys.stderr.write(f"kr210_sim: {result.interrupted}\n")
-        return 130
-    return 0
-
-
-def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.load import model_for
-    from kr210_sim.eval.evaluate import EvalConfig, evaluate
-    from kr210_sim.util.outputs import check_writable
-
-    config = EvalConfig(
-        episodes=args.episodes,
-        seed=args.seed,
-        randomize=args.randomize,
-        workers=args.workers,
-        scene=args.scene,
-        backend=args.backend,
-        address=args.address,
-        ik=args.ik,
-        cell=args.cell,
-    )
-    _load_ik(args.ik)  # a bad SPEC is one line here, before any worker starts
-    if config.backend == "ray":
-        from importlib.util import find_spec
-
-        from kr210_sim.eval.ray_backend import INSTALL_HINT
-
-        if find_spec("ray") is None:
-            raise ConfigError(INSTALL_HINT)
-    check_writable(args.report)
-    if args.record_failures is not None:
-        from kr210_sim.util.outputs import check_folder
-
-        check_folder(args.record_failures)
-    model_for(args.scene, args.cell)  # a bad scene or cell fails here, before any worker starts
-    outcome = evaluate(config, report=args.report, resume=args.resume)
-    report = outcome.report
-    s = report["summary"]
-    lo, hi = s["success_rate_ci95"]
-    out = sys.stdout
-    out.write(
-        f"  episodes      {s['episodes']}{' (interrupted)' if outcome.interrupted else ''}\n"
-        f"  successes     {s['successes']} ({100 * s['success_rate']:.2f} %, "
-        f"95 % CI {100 * lo:.2f}-{100 * hi:.2f} %)\n"
-    )
-    for reason, f in s["failures"].items():
-        seeds = ", ".join(str(e["seed"]) for e in f["examples"])
-        out.write(f"  {reason:<13} {f['count']}  (seeds {seeds})\n")
-    ct = s["cycle_time"]
-    ex = report["execution"]
-    where = f"{ex['workers']} worker(s), {ex['backend']}"
-    if ex["backend"] == "ray":
-        where += f" ({ex['nodes']} node(s), {ex['cpus']} CPUs)"
-    resumed = f", {ex['resumed_episodes']} resumed" if ex["resumed_episodes"] else ""
-    out.write(
-        f"  cycle time    mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s\n"
-        f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
-        f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
-    )
-    if args.record_failures is not None and outcome.signal is None:
-        from kr210_sim.media.recording import record_failures
-
-        made = record_failures(
-            report["failed_episodes"],
-            config.randomize,
-            args.record_failures,
-            config.cell or config.scene,
-            ik=args.ik,
-        )
-        out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
-    if outcome.signal is not None:
-        name = signal.Signals(outcome.signal).name
-        sys.stderr.write(
-            f"kr210_sim: interrupted ({name}) after {s['episodes']} episodes; "
-            "continue with --resume\n"
-        )
-        return 128 + outcome.signal
-    passed = s["success_rate"] >= args.min_success
-    out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
-    return 0 if passed else 1
-
-
-def _cmd_check(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.load import model_for
-    from kr210_sim.plan.cellcheck import check_cell
-
-    result = check_cell(model_for(args.scene, args.cell))
-    sys.stdout.write(result.table() + "\n")
-    return 0 if result.ok else 1
-
-
-def _cmd_ik_check(args: argparse.Namespace) -> int:
-    from kr210_sim.api import ik_check
-
-    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
-    result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
-    out = sys.stdout
-    out.write(result.text + "\n")
-    out.write(f"  report: {args.report}\n")
-    if result.plot_paths:
-        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
-    return 0 if result.passed else 1
-
-
-def _cmd_demos(args: argparse.Namespace) -> int:
-    from kr210_sim.envs.demos import record_demos
-
-    s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
-    sys.stdout.write(
-        f"  episodes   {s.episodes} ({s.successes} succeeded)\n"
-        f"  samples    {s.samples} policy steps\n  dataset: {s.path}\n"
-    )
-    return 0
-
-
-def _cmd_build_scene(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.mjcf import build_scene
-
-    for path in build_scene(args.out):
-        print(f"wrote {path}")
-    return 0
-
-
-def _cmd_build_meshes(args: argparse.Namespace) -> int:
-    from kr210_sim.robot.meshes import build_meshes
-
-    paths = build_meshes(args.out) if args.out else build_meshes()
-    print(f"wrote {len(paths)} meshes to {paths[0].parent if paths else args.out}")
-    return 0
-
-
-def _cmd_snapshot(args: argparse.Namespace) -> int:
-    from kr210_sim.cell.load import model_for
-    from kr210_sim.media.render import snapshot
-
-    model = model_for(None, args.cell) if args.cell is not None else None
-    path = snapshot(args.out, camera=args.camera, width=args.width, height=args.height, model=model)
-    print(f"wrote {path}")
-    return 0
 
 
 def _add_cell_option(cmd: argparse.ArgumentParser) -> None:
@@ -577,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="processes rendering the video (one per core; 1: render in this process)",
     )
-    run.set_defaults(func=_cmd_run)
+    run.set_defaults(func=commands.run)
 
     rp = sub.add_parser("replay", help="render a recording (run --record) to MP4")
     rp.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
@@ -595,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="MJCF scene the recording was made with (default: the one it names, else ours)",
     )
-    rp.set_defaults(func=_cmd_replay)
+    rp.set_defaults(func=commands.replay)
 
     view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
     _add_run_options(view, report=DEFAULT_VIEW_REPORT)
@@ -646,7 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="exit when the cycles are done (default: keep showing until Ctrl-C)",
     )
-    view.set_defaults(func=_cmd_view)
+    view.set_defaults(func=commands.view)
 
     ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
     ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
@@ -698,12 +327,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="record every failed episode as DIR/<seed>_<reason>.npz (replay renders it)",
     )
-    ev.set_defaults(func=_cmd_evaluate)
+    ev.set_defaults(func=commands.evaluate)
 
     chk = sub.add_parser("check", help="can every slot and drop spot of a cell be served?")
     chk.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
     _add_cell_option(chk)
-    chk.set_defaults(func=_cmd_check)
+    chk.set_defaults(func=commands.check)
 
     ikc = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
     ikc.add_argument(
@@ -724,7 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"JSON report path ({DEFAULT_IK_REPORT})",
     )
     ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
-    ikc.set_defaults(func=_cmd_ik_check)
+    ikc.set_defaults(func=commands.ik_check)
 
     demos = sub.add_parser(
         "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"
@@ -738,15 +367,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demos.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
     demos.add_argument("--randomize", action="store_true", help="randomise the cylinders")
-    demos.set_defaults(func=_cmd_demos)
+    demos.set_defaults(func=commands.demos)
 
     scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
     scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")
-    scene.set_defaults(func=_cmd_build_scene)
+    scene.set_defaults(func=commands.build_scene)
 
     meshes = sub.add_parser("build-meshes", help="regenerate the KR210 meshes")
     meshes.add_argument("--out", type=Path, default=None, help="output folder")
-    meshes.set_defaults(func=_cmd_build_meshes)
+    meshes.set_defaults(func=commands.build_meshes)
 
     snap = sub.add_parser("snapshot", help="render a still of the cell offscreen")
     snap.add_argument("--camera", default="overview", help="camera name (overview)")
@@ -754,7 +383,7 @@ def build_parser() -> argparse.ArgumentParser:
     snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
     snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
     _add_cell_option(snap)
-    snap.set_defaults(func=_cmd_snapshot)
+    snap.set_defaults(func=commands.snapshot)
     return parser
 
 

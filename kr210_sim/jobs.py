@@ -1,13 +1,17 @@
-"""The main job: run N cycles, print them, write the report, optionally film and plot the run.
+"""The jobs behind the commands, as functions the CLI and tests call.
 
-This is what ``python -m kr210_sim run`` does, as a function the CLI and tests call. Order of
-work: check every output path first (a usage error costs nothing: unwritable paths and outputs
-that clash with each other or with an input are refused before anything runs), run the cycles
-(with the state recorders as step hooks: one keeps the states for ``--record``, one feeds the
-video's render pool, so rendering overlaps the simulation), append the closing bin shot, then
-write the report, the recording, finish the video and write the plots. The report is written
-even when the video fails or the run is interrupted (Ctrl-C, SIGTERM): the failure is reported
-afterwards, and an interrupted video keeps the frames of the states simulated so far.
+The main one, :func:`run_job`, is what ``python -m kr210_sim run`` does. Order of work: check
+every output path first (a usage error costs nothing: unwritable paths and outputs that clash
+with each other or with an input are refused before anything runs), run the cycles (with the
+state recorders as step hooks: one keeps the states for ``--record``, one feeds the video's
+render pool, so rendering overlaps the simulation), append the closing bin shot, then write the
+report, the recording, finish the video and write the plots. The report is written even when
+the video fails or the run is interrupted (Ctrl-C, SIGTERM): the failure is reported afterwards,
+and an interrupted video keeps the frames of the states simulated so far.
+
+The others: :func:`replay_job` (``replay``; :func:`open_recording` also serves ``view
+--replay``), :func:`evaluate_job` (``evaluate``'s checks before any worker starts),
+:func:`check_job` (``check``) and :func:`snapshot_job` (``snapshot``).
 """
 
 from __future__ import annotations
@@ -17,17 +21,20 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from kr210_sim.cell.load import model_for
+from kr210_sim.cell.load import model_at, model_for
 from kr210_sim.errors import ConfigError, RenderError, UnservableCellError, one_line
 from kr210_sim.media.plots import PLOT_NAMES
 from kr210_sim.media.recording import (
     DEFAULT_RATE,
     DEFAULT_TAIL,
+    Recording,
     StateRecorder,
+    check_model,
     check_recording_path,
     model_identity,
+    read_recording,
     run_meta,
     write_recording,
 )
@@ -48,6 +55,10 @@ from kr210_sim.util.paths import SCENE_PATH, URDF_PATH
 from kr210_sim.util.progress import VideoProgress
 
 import mujoco  # isort: skip
+
+if TYPE_CHECKING:
+    from kr210_sim.eval.evaluate import EvalConfig, EvalOutcome
+    from kr210_sim.plan.cellcheck import CellCheck
 
 
 @dataclass
@@ -345,3 +356,146 @@ def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt 
     except RenderError as exc:
         pool.abort(keep=False)
         return 0, str(exc), None
+
+
+def open_recording(
+    path: Path, scene: Path | None = None
+) -> tuple[Recording, mujoco.MjModel, Path | None]:
+    """Read the recording at ``path`` and load the model it was made with (``scene``, else the
+    scene it names, else the committed one), checked against it (``replay``, ``view --replay``).
+
+    Returns:
+        The recording, the model, and the scene path used (None: the committed scene).
+
+    Raises:
+        RecordingError: The file is not a readable recording or was made with another model.
+        SceneError: The scene cannot be loaded.
+    """
+    recording = read_recording(path)
+    if scene is None and recording.meta.get("scene"):
+        scene = Path(recording.meta["scene"])
+    model = model_at(scene)
+    check_model(path, recording, model)
+    return recording, model, scene
+
+
+@dataclass(frozen=True, slots=True)
+class ReplayResult:
+    """What :func:`replay_job` made.
+
+    Attributes:
+        video: The settings the MP4 was rendered with (its path included).
+        frames: Frames written (0: no MP4).
+        workers: Processes that rendered it.
+        interrupted: The interrupt that stopped the render early (the frames so far are kept),
+            or None.
+    """
+
+    video: VideoSettings
+    frames: int
+    workers: int
+    interrupted: KeyboardInterrupt | None
+
+
+def replay_job(
+    recording: Path,
+    video_path: Path | None = None,
+    options: dict[str, Any] | None = None,
+    scene: Path | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, float, int | None], None] | None = None,
+) -> ReplayResult:
+    """Render a recording (``run --record``) to MP4: the ``replay`` command.
+
+    Args:
+        recording: The recording (``.npz``).
+        video_path: The MP4 (default: the recording's path with ``.mp4``).
+        options: Video settings given (``cameras``, ``width``, ``height``, ``fps``,
+            ``quality``); the rest are the run's own when it had a video, else the defaults,
+            and fps defaults to the recording's rate.
+        scene: The scene or cell the recording was made with (default: the one it names).
+        workers: Render processes (default: one per core; 1 renders in this process).
+        progress: Called with (frames written, simulated time [s], total frames or None).
+
+    Raises:
+        RecordingError: The recording is unreadable or was made with another model.
+        ConfigError: The MP4 path cannot be written or names an input.
+        RenderError: Rendering or encoding failed.
+    """
+    from kr210_sim.media.render_pool import render_recording
+
+    rec, model, scene = open_recording(recording, scene)
+    made: dict[str, Any] = dict(rec.meta.get("video") or {})
+    if "cameras" in made:
+        made["cameras"] = tuple(made["cameras"])
+    given = options or {}
+    fps = given.get("fps", made.get("fps", round(rec.rate)))
+    path = video_path if video_path is not None else recording.with_suffix(".mp4")
+    video = VideoSettings(path=path, **{**made, **given, "fps": fps})
+    check_writable(video.path)
+    if is_stream(video.path):
+        raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
+    check_distinct(
+        {"--video": video.path},
+        {"the recording": recording, "--scene": scene if scene is not None else SCENE_PATH},
+    )
+    workers = workers if workers is not None else default_workers()
+    total = rec.frames if fps == rec.rate else None
+
+    def report(frames: int, sim_time: float) -> None:
+        if progress is not None:
+            progress(frames, sim_time, total)
+
+    frames, interrupted = render_recording(rec, model, video, workers, report)
+    return ReplayResult(video, frames, workers, interrupted)
+
+
+def evaluate_job(
+    config: EvalConfig, report: Path, resume: bool = False, record_failures: Path | None = None
+) -> EvalOutcome:
+    """The ``evaluate`` command: check everything that can be checked before a worker starts
+    (the IK SPEC, Ray installed for ``backend="ray"``, the report path, the folder for the failed
+    episodes' recordings, the scene or cell), then evaluate.
+
+    Raises:
+        ConfigError, IkSpecError, SceneError: On a bad input, before any episode runs.
+    """
+    from kr210_sim.eval.evaluate import evaluate
+
+    if config.ik is not None:
+        from kr210_sim.robot.user_ik import load_ik
+
+        load_ik(config.ik)
+    if config.backend == "ray":
+        from importlib.util import find_spec
+
+        from kr210_sim.eval.ray_backend import INSTALL_HINT
+
+        if find_spec("ray") is None:
+            raise ConfigError(INSTALL_HINT)
+    check_writable(report)
+    if record_failures is not None:
+        check_folder(record_failures)
+    model_for(config.scene, config.cell)
+    return evaluate(config, report=report, resume=resume)
+
+
+def check_job(scene: Path | None = None, cell: Path | None = None) -> CellCheck:
+    """The ``check`` command: can every slot and drop spot of the cell be served?"""
+    from kr210_sim.plan.cellcheck import check_cell
+
+    return check_cell(model_for(scene, cell))
+
+
+def snapshot_job(
+    out: Path,
+    camera: str = "overview",
+    width: int = 1280,
+    height: int = 720,
+    cell: Path | None = None,
+) -> Path:
+    """The ``snapshot`` command: a still of the committed scene, or of ``cell``, as a PNG."""
+    from kr210_sim.media.render import snapshot
+
+    model = model_for(None, cell) if cell is not None else None
+    return snapshot(out, camera=camera, width=width, height=height, model=model)

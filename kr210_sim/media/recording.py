@@ -206,11 +206,6 @@ class Recording:
             event=str(self.meta["event_texts"][int(a["event"][i])]),
         )
 
-    def frame_at_time(self, t: float) -> int:
-        """The last frame at or before simulated time ``t`` [s] (the first if none)."""
-        i = int(np.searchsorted(self.arrays["time"], t + 1e-9, side="right")) - 1
-        return max(0, min(i, self.frames - 1))
-
 
 class StateRecorder:
     """A cell step hook that takes the state every ``1 / rate`` of simulated time.

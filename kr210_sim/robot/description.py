@@ -7,7 +7,8 @@ and the scene builder all read their constants from :func:`load_robot`, never fr
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from xml.etree import ElementTree
@@ -17,6 +18,8 @@ import numpy.typing as npt
 
 from kr210_sim.errors import SceneError
 from kr210_sim.util.paths import URDF_PATH
+
+FloatArray = npt.NDArray[np.float64]
 
 #: Names of the six revolute arm joints, base to wrist.
 ARM_JOINTS: tuple[str, ...] = tuple(f"joint_{i}" for i in range(1, 7))
@@ -63,6 +66,59 @@ class JointInfo:
 
 
 @dataclass(frozen=True, slots=True)
+class Geometry:
+    """The KR210 constants the closed form needs, read from the URDF.
+
+    Attributes:
+        d0: Height of joint_1 above the base [m].
+        a1: Forward offset of joint_2 from the joint_1 axis [m].
+        h1: Height of joint_2 above joint_1 [m].
+        a2: Length of link_2 (joint_2 to joint_3) [m].
+        a3x: Forearm length from joint_3 to the wrist centre along x [m].
+        a3z: Forearm offset from joint_3 to the wrist centre along z [m] (negative: below).
+        dg: Wrist centre to gripper_link along the gripper x axis [m].
+        lower: Lower joint limits [rad], shape (6,).
+        upper: Upper joint limits [rad], shape (6,).
+        v_max: Joint velocity limits [rad/s], shape (6,).
+    """
+
+    d0: float
+    a1: float
+    h1: float
+    a2: float
+    a3x: float
+    a3z: float
+    dg: float
+    lower: FloatArray
+    upper: FloatArray
+    v_max: FloatArray
+    lower_list: list[float] = field(default_factory=list, repr=False, compare=False)
+    upper_list: list[float] = field(default_factory=list, repr=False, compare=False)
+    inv_v2_list: list[float] = field(default_factory=list, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # Plain-float copies for the single-pose path (numpy scalars are slow in math code).
+        object.__setattr__(self, "lower_list", self.lower.tolist())
+        object.__setattr__(self, "upper_list", self.upper.tolist())
+        object.__setattr__(self, "inv_v2_list", (1.0 / (self.v_max * self.v_max)).tolist())
+
+    @property
+    def forearm(self) -> float:
+        """Distance from joint_3 to the wrist centre [m]."""
+        return math.hypot(self.a3x, self.a3z)
+
+    @property
+    def forearm_angle(self) -> float:
+        """Angle of the wrist centre below the forearm line, seen from joint_3 [rad]."""
+        return math.atan2(-self.a3z, self.a3x)
+
+    @property
+    def reach(self) -> float:
+        """Largest distance from joint_2 to the wrist centre [m]."""
+        return self.a2 + self.forearm
+
+
+@dataclass(frozen=True, slots=True)
 class RobotDescription:
     """The figures of the KR210 read from its URDF.
 
@@ -79,6 +135,8 @@ class RobotDescription:
         finger_center_x: x of the finger pads' centre in the gripper_link frame [m].
         lip_x: x of the fingertip lips' inner (palm-side) faces in the gripper_link frame [m].
         lip_depth: How far each lip stands out of its finger's inner face [m].
+        geometry: The closed-form kinematics' constants, from ``joints`` and the arm's limits
+            (derived, not passed: a description with changed joints has their geometry).
     """
 
     urdf_path: Path
@@ -93,14 +151,53 @@ class RobotDescription:
     finger_center_x: float
     lip_x: float
     lip_depth: float
+    geometry: Geometry = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        geometry = _geometry(self.joints, self.q_lower, self.q_upper, self.qd_max)
+        object.__setattr__(self, "geometry", geometry)
 
     def finger_gap(self, finger_q: float) -> float:
         """Distance between the inner finger faces [m] at finger position ``finger_q`` [m]."""
         return self.finger_gap_at_zero - 2.0 * finger_q
 
-    def finger_q_for_gap(self, gap: float) -> float:
-        """Finger joint position in [m] that leaves ``gap`` [m] between the inner finger faces."""
-        return (self.finger_gap_at_zero - gap) / 2.0
+
+def _geometry(
+    joints: dict[str, JointInfo], lower: FloatArray, upper: FloatArray, v_max: FloatArray
+) -> Geometry:
+    """The closed form's constants from the joint origins of a KR210 URDF.
+
+    Raises:
+        SceneError: When the joints are not a KR210's (rotated origins, other axes, wrist axes
+            that do not meet in one point).
+    """
+    j = joints
+
+    def xyz(name: str) -> FloatArray:
+        origin = j[name].origin
+        if not np.allclose(origin[:3, :3], np.eye(3), atol=1e-12):
+            raise SceneError(f"{name} has a rotated origin; the closed form assumes rpy = 0")
+        return origin[:3, 3]
+
+    expected_axes = ((0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0))
+    for name, axis in zip(ARM_JOINTS, expected_axes, strict=True):
+        if not np.allclose(j[name].axis, axis):
+            raise SceneError(f"{name} axis {j[name].axis} is not {axis}: not a KR210 URDF")
+    o1, o2, o3, o4, o5, o6, og = (xyz(n) for n in (*ARM_JOINTS, "gripper_joint"))
+    if abs(o5[2]) > 1e-12 or abs(o6[2]) > 1e-12 or abs(og[2]) > 1e-12 or abs(o4[1]) > 1e-12:
+        raise SceneError("the wrist axes do not meet in one point: no closed form")
+    return Geometry(
+        d0=float(o1[2]),
+        a1=float(o2[0]),
+        h1=float(o2[2]),
+        a2=float(o3[2]),
+        a3x=float(o4[0] + o5[0]),
+        a3z=float(o4[2]),
+        dg=float(o6[0] + og[0]),
+        lower=lower.copy(),
+        upper=upper.copy(),
+        v_max=v_max.copy(),
+    )
 
 
 def _finger_boxes(urdf: object, link_name: str) -> list[tuple[np.ndarray, np.ndarray]]:

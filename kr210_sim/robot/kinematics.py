@@ -29,14 +29,12 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import UnreachablePoseError
-from kr210_sim.robot.description import ARM_JOINTS, load_robot
+from kr210_sim.robot.description import ARM_JOINTS, Geometry, load_robot
 
 FloatArray = npt.NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
@@ -48,90 +46,9 @@ WRIST_SINGULAR = 1e-9
 LIMIT_SLACK = 1e-9
 
 
-@dataclass(frozen=True, slots=True)
-class Geometry:
-    """The KR210 constants the closed form needs, read from the URDF.
-
-    Attributes:
-        d0: Height of joint_1 above the base [m].
-        a1: Forward offset of joint_2 from the joint_1 axis [m].
-        h1: Height of joint_2 above joint_1 [m].
-        a2: Length of link_2 (joint_2 to joint_3) [m].
-        a3x: Forearm length from joint_3 to the wrist centre along x [m].
-        a3z: Forearm offset from joint_3 to the wrist centre along z [m] (negative: below).
-        dg: Wrist centre to gripper_link along the gripper x axis [m].
-        lower: Lower joint limits [rad], shape (6,).
-        upper: Upper joint limits [rad], shape (6,).
-        v_max: Joint velocity limits [rad/s], shape (6,).
-    """
-
-    d0: float
-    a1: float
-    h1: float
-    a2: float
-    a3x: float
-    a3z: float
-    dg: float
-    lower: FloatArray
-    upper: FloatArray
-    v_max: FloatArray
-    lower_list: list[float] = field(default_factory=list, repr=False, compare=False)
-    upper_list: list[float] = field(default_factory=list, repr=False, compare=False)
-    inv_v2_list: list[float] = field(default_factory=list, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        # Plain-float copies for the single-pose path (numpy scalars are slow in math code).
-        object.__setattr__(self, "lower_list", self.lower.tolist())
-        object.__setattr__(self, "upper_list", self.upper.tolist())
-        object.__setattr__(self, "inv_v2_list", (1.0 / (self.v_max * self.v_max)).tolist())
-
-    @property
-    def forearm(self) -> float:
-        """Distance from joint_3 to the wrist centre [m]."""
-        return math.hypot(self.a3x, self.a3z)
-
-    @property
-    def forearm_angle(self) -> float:
-        """Angle of the wrist centre below the forearm line, seen from joint_3 [rad]."""
-        return math.atan2(-self.a3z, self.a3x)
-
-    @property
-    def reach(self) -> float:
-        """Largest distance from joint_2 to the wrist centre [m]."""
-        return self.a2 + self.forearm
-
-
-@lru_cache(maxsize=1)
 def geometry() -> Geometry:
-    """The geometry of the committed URDF (cached)."""
-    robot = load_robot()
-    j = robot.joints
-
-    def xyz(name: str) -> FloatArray:
-        origin = j[name].origin
-        if not np.allclose(origin[:3, :3], np.eye(3), atol=1e-12):
-            raise ValueError(f"{name} has a rotated origin; the closed form assumes rpy = 0")
-        return origin[:3, 3]
-
-    expected_axes = ((0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0))
-    for name, axis in zip(ARM_JOINTS, expected_axes, strict=True):
-        if not np.allclose(j[name].axis, axis):
-            raise ValueError(f"{name} axis {j[name].axis} is not {axis}: not a KR210 URDF")
-    o1, o2, o3, o4, o5, o6, og = (xyz(n) for n in (*ARM_JOINTS, "gripper_joint"))
-    if abs(o5[2]) > 1e-12 or abs(o6[2]) > 1e-12 or abs(og[2]) > 1e-12 or abs(o4[1]) > 1e-12:
-        raise ValueError("the wrist axes do not meet in one point: no closed form")
-    return Geometry(
-        d0=float(o1[2]),
-        a1=float(o2[0]),
-        h1=float(o2[2]),
-        a2=float(o3[2]),
-        a3x=float(o4[0] + o5[0]),
-        a3z=float(o4[2]),
-        dg=float(o6[0] + og[0]),
-        lower=robot.q_lower.copy(),
-        upper=robot.q_upper.copy(),
-        v_max=robot.qd_max.copy(),
-    )
+    """The geometry of the committed URDF."""
+    return load_robot().geometry
 
 
 # --------------------------------------------------------------------------- input checks
@@ -442,15 +359,6 @@ def _fit_limits(sol: FloatArray, g: Geometry) -> FloatArray:
             bad |= (v < lo[j]) | (v > hi[j])
     sol[bad] = np.nan
     return sol
-
-
-def _dedupe(rows: list[list[float]]) -> FloatArray:
-    """Distinct rows (|difference| > 1e-9 rad somewhere), in the original order."""
-    keep: list[list[float]] = []
-    for r in rows:
-        if not any(max(abs(a - b) for a, b in zip(r, k, strict=True)) < 1e-9 for k in keep):
-            keep.append(r)
-    return np.array(keep, dtype=np.float64).reshape(-1, 6)
 
 
 def inverse(T: npt.ArrayLike) -> FloatArray:

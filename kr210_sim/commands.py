@@ -1,0 +1,352 @@
+"""The commands of ``python -m kr210_sim``: each calls its job and prints what it made.
+
+One function per command, called by :mod:`kr210_sim.cli` (which parses the arguments and maps
+library errors to one-line messages and exit codes) with the parsed arguments; each returns the
+command's exit code. The work itself is in :mod:`kr210_sim.jobs`, :mod:`kr210_sim.api` and the
+subpackages.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from typing import TYPE_CHECKING, Any
+
+from kr210_sim.errors import ConfigError
+from kr210_sim.util.interrupts import exit_code, signal_name
+from kr210_sim.util.progress import ProgressLine
+
+if TYPE_CHECKING:
+    from kr210_sim.api import RunReport
+    from kr210_sim.media.video import VideoSettings
+
+#: Recorded states per simulated second without ``--record-rate`` [Hz].
+DEFAULT_RECORD_RATE = 30
+
+
+def _load_ik(spec: str | None) -> Any:
+    """The user's IK for ``--ik SPEC`` (None without one); a bad SPEC is a one-line error here,
+    before anything runs."""
+    if spec is None:
+        return None
+    from kr210_sim.robot.user_ik import load_ik
+
+    return load_ik(spec)
+
+
+def _video_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The video options given on the command line (VideoSettings holds the defaults)."""
+    return {
+        k: v
+        for k, v in (
+            ("cameras", tuple(args.camera) if args.camera else None),
+            ("width", args.width),
+            ("height", args.height),
+            ("fps", args.fps),
+            ("quality", args.quality),
+        )
+        if v is not None
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    """``run``: run and score cycles, print the table and the outputs."""
+    from kr210_sim.api import RunInterrupted, RunReport, run
+    from kr210_sim.errors import VideoFailedError
+    from kr210_sim.media.video import VideoSettings
+
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    video = None
+    given = _video_options(args)
+    if args.video is not None:
+        video = VideoSettings(path=args.video, **given)
+    elif given:
+        raise ConfigError("--camera, --width, --height, --fps and --quality need --video PATH")
+    if args.render_workers is not None and video is None:
+        raise ConfigError("--render-workers needs --video PATH")
+    if args.record_rate is not None and args.record is None:
+        raise ConfigError("--record-rate needs --record PATH")
+    interrupted: RunInterrupted | None = None
+    try:
+        result = run(
+            args.cycles,
+            args.seed,
+            args.slot,
+            args.randomize,
+            ik=ik,
+            video=video,
+            plots=args.plots,
+            scene=args.scene,
+            cell=args.cell,
+            report=args.report,
+            out=sys.stdout,
+            record=args.record,
+            record_rate=args.record_rate or DEFAULT_RECORD_RATE,
+            render_workers=args.render_workers,
+        )
+    except RunInterrupted as exc:
+        interrupted, result = exc, exc.report  # type: ignore[assignment]
+    except VideoFailedError as exc:
+        result = exc.report
+    assert isinstance(result, RunReport)
+    _print_run(result, video)
+    if interrupted is not None:
+        if result.video_error is not None:
+            sys.stderr.write(f"kr210_sim: error: {result.video_error}\n")
+        return exit_code(interrupted)
+    if result.video_error is not None:
+        sys.stderr.write(f"kr210_sim: error: {result.video_error} (the report was written)\n")
+        return 2
+    summary = result.summary
+    passed = result.passed(args.min_success)
+    sys.stdout.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
+def _print_run(result: RunReport, video: VideoSettings | None) -> None:
+    """The summary table and the outputs of ``run`` on stdout."""
+    from kr210_sim.score.report import summary_table
+
+    out = sys.stdout
+    summary = dict(result.summary)
+    out.write(summary_table(summary) + "\n")
+    if "ik" in summary:
+        s, t = summary["ik"], summary["ik"]["wall_time_s"]
+        out.write(
+            f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
+            f"{1e6 * t['per_call_max']:.1f} us max per call\n"
+        )
+    out.write(f"  report: {result.path}\n")
+    if result.record_path is not None and result.record_frames:
+        size = result.record_path.stat().st_size / 1e6
+        out.write(
+            f"  recording: {result.record_path} ({result.record_frames} frames, {size:.2f} MB)\n"
+        )
+    if video is not None and result.video_error is None:
+        frames = result.video_frames
+        written = f"({frames} frames)" if frames else "not written (no frames)"
+        out.write(f"  video: {video.path} {written}\n")
+    if result.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+
+
+def replay(args: argparse.Namespace) -> int:
+    """``replay REC``: render a recording to MP4."""
+    from kr210_sim.jobs import replay_job
+
+    line = ProgressLine(sys.stderr)
+
+    def progress(frames: int, sim_time: float, total: int | None) -> None:
+        if line.due():
+            of = f"/{total}" if total else ""
+            line.show(f"replay: {frames}{of} frames  sim {sim_time:5.1f} s  {line.elapsed:4.0f} s")
+
+    result = replay_job(
+        args.recording, args.video, _video_options(args), args.scene, args.workers, progress
+    )
+    frames = result.frames
+    line.end(f"replay: {frames} frames in {line.elapsed:.1f} s on {result.workers} worker(s)")
+    written = f"({frames} frames)" if frames else "not written (no frames)"
+    sys.stdout.write(f"  video: {result.video.path} {written}\n")
+    if result.interrupted is not None:
+        sys.stderr.write(
+            f"kr210_sim: interrupted ({signal_name(result.interrupted)}); frames so far kept\n"
+        )
+        return exit_code(result.interrupted)
+    return 0
+
+
+def view(args: argparse.Namespace) -> int:
+    """``view``: the cycles live in MuJoCo Studio (or a recording, or the joint sliders)."""
+    from kr210_sim.score.report import summary_table
+    from kr210_sim.sim.runner import RunConfig
+    from kr210_sim.view.live import LiveSettings, run_joints, view_job
+    from kr210_sim.view.studio import FREE_CAMERA, ViewerSettings, has_display
+
+    mode = "window" if args.window else "web" if args.web or not has_display() else "window"
+    settings = ViewerSettings(
+        mode=mode,
+        host=args.host,
+        port=args.port,
+        camera=args.camera or FREE_CAMERA,
+        demo=args.demo,
+        joints=args.joints,
+        quality=args.quality,
+    )
+    if args.joints:
+        if args.demo:
+            raise ConfigError("--joints has no task to step through: drop --demo")
+        run_joints(settings)
+        return 0
+    if args.replay is not None:
+        return _view_replay(args, settings)
+    config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    ik = _load_ik(args.ik)
+    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
+    out = sys.stdout
+    summary = result.report["summary"]
+    out.write(summary_table(summary) + "\n")
+    out.write(
+        f"  report: {result.report_path}\n  live pace: {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x), {result.frames} viewer updates\n"
+    )
+    if result.interrupted:
+        return result.exit_code or 130
+    passed = summary["success_rate"] >= args.min_success
+    out.write(
+        f"{'PASS' if passed else 'FAIL'}: {summary['successes']}/{summary['cycles']} "
+        f"cycles succeeded (pass bar {args.min_success:.0%})\n"
+    )
+    return 0 if passed else 1
+
+
+def _view_replay(args: argparse.Namespace, settings: Any) -> int:
+    """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
+    from kr210_sim.jobs import open_recording
+    from kr210_sim.view.live import LiveSettings, replay_view
+
+    if args.demo:
+        raise ConfigError("--replay plays a recording: drop --demo")
+    rec, model, _ = open_recording(args.replay, args.scene)
+    live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
+    result = replay_view(rec, model, settings, live)
+    sys.stdout.write(
+        f"  replay: {result.frames}/{rec.frames} frames at {result.real_time_factor:.2f}x real "
+        f"time (asked {args.speed:g}x)\n"
+    )
+    if result.interrupted is not None:
+        if isinstance(result.interrupted, KeyboardInterrupt):
+            return exit_code(result.interrupted)
+        sys.stderr.write(f"kr210_sim: {result.interrupted}\n")
+        return 130
+    return 0
+
+
+def evaluate(args: argparse.Namespace) -> int:
+    """``evaluate``: Monte-Carlo evaluation over seeded episodes."""
+    from kr210_sim.eval.evaluate import EvalConfig
+    from kr210_sim.jobs import evaluate_job
+
+    config = EvalConfig(
+        episodes=args.episodes,
+        seed=args.seed,
+        randomize=args.randomize,
+        workers=args.workers,
+        scene=args.scene,
+        backend=args.backend,
+        address=args.address,
+        ik=args.ik,
+        cell=args.cell,
+    )
+    outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
+    report = outcome.report
+    s = report["summary"]
+    lo, hi = s["success_rate_ci95"]
+    out = sys.stdout
+    out.write(
+        f"  episodes      {s['episodes']}{' (interrupted)' if outcome.interrupted else ''}\n"
+        f"  successes     {s['successes']} ({100 * s['success_rate']:.2f} %, "
+        f"95 % CI {100 * lo:.2f}-{100 * hi:.2f} %)\n"
+    )
+    for reason, f in s["failures"].items():
+        seeds = ", ".join(str(e["seed"]) for e in f["examples"])
+        out.write(f"  {reason:<13} {f['count']}  (seeds {seeds})\n")
+    ct = s["cycle_time"]
+    ex = report["execution"]
+    where = f"{ex['workers']} worker(s), {ex['backend']}"
+    if ex["backend"] == "ray":
+        where += f" ({ex['nodes']} node(s), {ex['cpus']} CPUs)"
+    resumed = f", {ex['resumed_episodes']} resumed" if ex["resumed_episodes"] else ""
+    out.write(
+        f"  cycle time    mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s\n"
+        f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
+        f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
+    )
+    if args.record_failures is not None and outcome.signal is None:
+        from kr210_sim.media.recording import record_failures
+
+        made = record_failures(
+            report["failed_episodes"],
+            config.randomize,
+            args.record_failures,
+            config.cell or config.scene,
+            ik=args.ik,
+        )
+        out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
+    if outcome.signal is not None:
+        name = signal.Signals(outcome.signal).name
+        sys.stderr.write(
+            f"kr210_sim: interrupted ({name}) after {s['episodes']} episodes; "
+            "continue with --resume\n"
+        )
+        return 128 + outcome.signal
+    passed = s["success_rate"] >= args.min_success
+    out.write(f"{'PASS' if passed else 'FAIL'}: pass bar {args.min_success:.1%}\n")
+    return 0 if passed else 1
+
+
+def check(args: argparse.Namespace) -> int:
+    """``check``: can every slot and drop spot of a cell be served?"""
+    from kr210_sim.jobs import check_job
+
+    result = check_job(args.scene, args.cell)
+    sys.stdout.write(result.table() + "\n")
+    return 0 if result.ok else 1
+
+
+def ik_check(args: argparse.Namespace) -> int:
+    """``ik-check --ik SPEC``: grade an IK function."""
+    from kr210_sim.api import ik_check
+
+    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
+    out = sys.stdout
+    out.write(result.text + "\n")
+    out.write(f"  report: {args.report}\n")
+    if result.plot_paths:
+        out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+    return 0 if result.passed else 1
+
+
+def demos(args: argparse.Namespace) -> int:
+    """``demos``: record the scripted expert in the Gymnasium environment."""
+    from kr210_sim.envs.demos import record_demos
+
+    s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
+    sys.stdout.write(
+        f"  episodes   {s.episodes} ({s.successes} succeeded)\n"
+        f"  samples    {s.samples} policy steps\n  dataset: {s.path}\n"
+    )
+    return 0
+
+
+def build_scene(args: argparse.Namespace) -> int:
+    """``build-scene``: regenerate scenes/ from the URDF and the cell spec."""
+    from kr210_sim.cell.mjcf import build_scene
+
+    for path in build_scene(args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+def build_meshes(args: argparse.Namespace) -> int:
+    """``build-meshes``: regenerate the KR210 meshes."""
+    from kr210_sim.robot.meshes import build_meshes
+
+    paths = build_meshes(args.out) if args.out else build_meshes()
+    print(f"wrote {len(paths)} meshes to {paths[0].parent if paths else args.out}")
+    return 0
+
+
+def snapshot(args: argparse.Namespace) -> int:
+    """``snapshot``: render a still of the cell offscreen."""
+    from kr210_sim.jobs import snapshot_job
+
+    path = snapshot_job(args.out, args.camera, args.width, args.height, args.cell)
+    print(f"wrote {path}")
+    return 0
