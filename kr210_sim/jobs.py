@@ -38,7 +38,7 @@ from kr210_sim.media.recording import (
     run_meta,
     write_recording,
 )
-from kr210_sim.media.render_pool import RenderPool, default_workers
+from kr210_sim.media.render_pool import RenderPool, capped_workers, default_workers
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
@@ -249,7 +249,9 @@ def run_job(
     video_error: str | None = None
     if video is not None:
         progress = VideoProgress(config.cycles, progress_stream, tail=video.tail)
-        workers = render_workers if render_workers is not None else default_workers()
+        workers = (
+            capped_workers(render_workers) if render_workers is not None else default_workers()
+        )
         try:  # a bad camera or size raises ConfigError here, before anything has run
             pool = RenderPool(runner.model, video, geoms, workers, progress)
         except RenderError as exc:  # no GL backend or no encoder: run, report, then fail

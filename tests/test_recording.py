@@ -80,9 +80,48 @@ def test_model_identity_is_stable_and_sees_changes() -> None:
     assert model_identity(c) != model_identity(a)
 
 
-def _rewrite(src: Path, dst: Path, meta: dict[str, Any] | None = None, drop: str = "") -> Path:
+def test_model_identity_does_not_depend_on_how_the_scene_path_is_spelled(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import os
+    import shutil
+
+    from kr210_sim.cell.load import model_at
+    from kr210_sim.util.paths import ROOT, SCENE_PATH
+
+    ours = model_identity(load_model())
+    monkeypatch.chdir(ROOT)
+    assert model_identity(model_at("scenes/kr210_cell.xml")) == ours
+    monkeypatch.chdir(ROOT / "kr210_sim")
+    assert model_identity(model_at(os.path.relpath(SCENE_PATH))) == ours
+    copy_root = tmp_path / "copy"  # KR210_SIM_ROOT pointing at a copy of the data
+    shutil.copytree(ROOT / "assets", copy_root / "assets")
+    shutil.copytree(ROOT / "scenes", copy_root / "scenes")
+    assert model_identity(load_model(copy_root / "scenes" / "kr210_cell.xml")) == ours
+    # The published cell file compiles to the committed scene's model, and so is its identity.
+    assert model_identity(model_at(ROOT / "scenes" / "cells" / "published.toml")) == ours
+
+
+def test_a_recording_names_its_scene_by_an_absolute_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kr210_sim.media.recording import run_meta
+
+    monkeypatch.chdir(tmp_path)
+    meta = run_meta(CONFIG, "0" * 64, Path("cells/mine.toml"), None)
+    assert meta["scene"] == str(tmp_path / "cells" / "mine.toml")
+
+
+def _rewrite(
+    src: Path,
+    dst: Path,
+    meta: Any = None,
+    drop: str = "",
+    arrays_: dict[str, Any] | None = None,
+) -> Path:
     with np.load(src) as npz:
         arrays = {k: npz[k] for k in npz.files if k != drop}
+    arrays.update(arrays_ or {})
     if meta is not None:
         arrays["meta"] = np.array(json.dumps(meta))
     with open(dst, "wb") as fh:
@@ -125,7 +164,34 @@ def _bad_recordings(src: Path, folder: Path) -> dict[str, tuple[Path, str]]:
             _rewrite(src, folder / "mj.npz", {**meta, "mujoco": "3.2.0"}),
             "recorded with MuJoCo 3.2.0",
         ),
+        # Damaged by hand: each was a traceback (or, rate 0, exit 0 without a video).
+        "meta a list": (_rewrite(src, folder / "list.npz", [meta]), "metadata is a JSON list"),
+        "nq a string": (
+            _rewrite(src, folder / "nq.npz", {**meta, "nq": "x"}),
+            "nq 'x' is not a whole number",
+        ),
+        "phases a number": (
+            _rewrite(src, folder / "ph.npz", {**meta, "phases": 3}),
+            "phases is not a list of texts",
+        ),
+        "phase strings": (
+            _rewrite(src, folder / "phs.npz", meta, arrays_={"phase": _phase_texts(src)}),
+            "'phase' holds <U5, not whole numbers",
+        ),
+        "rate 0": (
+            _rewrite(src, folder / "rate.npz", {**meta, "rate": 0}),
+            "rate 0 is not 1-1000 frames per second",
+        ),
+        "rate negative": (
+            _rewrite(src, folder / "rateneg.npz", {**meta, "rate": -30.0}),
+            "rate -30.0 is not 1-1000 frames per second",
+        ),
     }
+
+
+def _phase_texts(src: Path) -> np.ndarray:
+    with np.load(src) as npz:
+        return np.array(["spawn"] * len(npz["phase"]))
 
 
 def test_bad_recordings_are_one_line_and_exit_2(
@@ -140,6 +206,10 @@ def test_bad_recordings_are_one_line_and_exit_2(
         assert len(lines) == 1 and "Traceback" not in err, (name, err)
         assert lines[0].startswith("kr210_sim: error: ") and message in lines[0], (name, err)
         assert not video.exists()
+        if path.exists():  # view --replay reads it the same way, before any viewer starts
+            assert main(["view", "--replay", str(path), "--web"]) == 2, name
+            err = capsys.readouterr().err
+            assert "Traceback" not in err and message in err, (name, err)
     with pytest.raises(RecordingError, match="lacks 'qpos'"):
         read_recording(tmp_path / "noq.npz")
 

@@ -24,6 +24,7 @@ from kr210_sim.media.render_pool import (
     HOLD,
     FrameRenderer,
     RenderPool,
+    capped_workers,
     chunk_frames,
     default_workers,
     gl_threads_per_worker,
@@ -174,6 +175,28 @@ def test_workers_share_the_cores_and_a_worker_per_core_rasterises_on_its_own_thr
     cores = default_workers()
     assert gl_threads_per_worker(cores) == gl_threads_per_worker(cores + 3) == 0
     assert gl_threads_per_worker(1) == (cores if cores > 1 else 0)
+
+
+def test_replay_starts_no_more_render_processes_than_cores_or_frames(
+    live: tuple[Path, Path, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import kr210_sim.media.render_pool as render_pool
+
+    started: list[int] = []
+
+    class Counted(RenderPool):
+        def __init__(self, *args: Any) -> None:
+            started.append(int(args[3]))
+            super().__init__(*args)
+
+    monkeypatch.setattr(render_pool, "RenderPool", Counted)
+    _, rec, _ = live
+    out = tmp_path / "few.mp4"
+    argv = ["replay", str(rec), "--video", str(out), "--fps", "1", "--workers", "64"]
+    assert main([*argv, "--width", "96", "--height", "64"]) == 0
+    frames = len(_frames(out))
+    assert started == [min(default_workers(), frames)]
+    assert capped_workers(64, 3) == min(default_workers(), 3) and capped_workers(1, 0) == 1
 
 
 def test_replay_resamples_and_takes_other_cameras(

@@ -47,8 +47,9 @@ IntArray = npt.NDArray[np.signedinteger]
 
 #: Name of the container format, in the metadata.
 FORMAT = "kr210_sim.media.recording"
-#: Version of the container format this code writes and reads.
-VERSION = 1
+#: Version of the container format this code writes and reads (2: the model identity leaves
+#: out the file paths the model was loaded from).
+VERSION = 2
 #: Default frames per simulated second [Hz].
 DEFAULT_RATE = 30
 #: Simulated seconds of the closing bin shot at the end of a recorded run [s].
@@ -62,18 +63,57 @@ SHAPE_WIDTH = 10
 
 
 def model_identity(model: mujoco.MjModel) -> str:
-    """The SHA-256 of the compiled model as MuJoCo saves it (``mj_saveModel``), hex.
+    """The SHA-256 of the compiled model, hex: every array, option and size it holds, but not
+    the file paths it was loaded from.
 
     Taken of the model as loaded, before a run changes it: the same scene or cell compiled by the
-    same MuJoCo gives the same digest (however the model was built: from an MJCF file, a cell
-    description or a spec), and any change that reaches the compiled model (a moved shelf, another
-    mesh, a restyled material) gives another.
+    same MuJoCo gives the same digest however its file was named (``scenes/kr210_cell.xml``, an
+    absolute path, a copy under ``KR210_SIM_ROOT``) and however the model was built (from an
+    MJCF file, a cell description or a spec), and any change that reaches the compiled model (a
+    moved shelf, another mesh, a restyled material) gives another. MuJoCo's own saved model
+    (``mj_saveModel``) holds the mesh file paths as spelled, so it is not used.
     """
     import hashlib
 
-    buf = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
-    mujoco.mj_saveModel(model, None, buf)
-    return hashlib.sha256(buf.tobytes()).hexdigest()
+    h = hashlib.sha256()
+    for name in _identity_fields(model):
+        value = getattr(model, name)
+        h.update(name.encode())
+        if isinstance(value, np.ndarray):
+            h.update(f"{value.dtype.str}{value.shape}".encode())
+            h.update(np.ascontiguousarray(value).tobytes())
+        else:  # opt, vis, stat: MuJoCo's structs of numbers
+            h.update(_struct_bytes(value))
+    return h.hexdigest()
+
+
+def _identity_fields(model: mujoco.MjModel) -> list[str]:
+    """The model's array and struct attributes that :func:`model_identity` hashes, sorted."""
+    skip = {"paths"}
+    out = []
+    for name in sorted(dir(model)):
+        if name.startswith("_") or name in skip or name.endswith("_pathadr"):
+            continue
+        value = getattr(model, name, None)
+        if isinstance(value, np.ndarray) or name in ("opt", "vis", "stat"):
+            out.append(name)
+    return out
+
+
+def _struct_bytes(value: Any) -> bytes:
+    """The numbers of one of MuJoCo's structs (and its nested structs), as bytes."""
+    parts: list[bytes] = []
+    for name in sorted(dir(value)):
+        if name.startswith("_"):
+            continue
+        v = getattr(value, name)
+        if callable(v):
+            continue
+        if isinstance(v, (int, float, bool, np.ndarray, np.generic)):
+            parts.append(name.encode() + np.asarray(v).tobytes())
+        elif not isinstance(v, (str, bytes)):
+            parts.append(name.encode() + _struct_bytes(v))
+    return b"".join(parts)
 
 
 def target_shapes(model: mujoco.MjModel, geoms: IntArray) -> FloatArray:
@@ -368,7 +408,9 @@ def read_recording(path: Path | str) -> Recording:
         meta = json.loads(str(arrays.pop("meta")))
     except (json.JSONDecodeError, TypeError) as exc:
         raise _fail(p, f"its metadata is not JSON ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+    if not isinstance(meta, dict):
+        raise _fail(p, f"not a kr210_sim recording (its metadata is a JSON {type(meta).__name__})")
+    if meta.get("format") != FORMAT:
         raise _fail(p, f"not a kr210_sim recording (format {meta.get('format')!r})")
     version = meta.get("version")
     if version != VERSION:
@@ -382,23 +424,62 @@ def read_recording(path: Path | str) -> Recording:
     missing += [k for k in ("phases", "event_texts") if k not in meta]
     if missing:
         raise _fail(p, f"damaged recording: it lacks {', '.join(repr(k) for k in missing)}")
+    _check_meta(p, meta)
     _check_consistent(p, arrays, meta)
     return Recording(arrays, meta)
 
 
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _check_meta(p: Path, meta: dict[str, Any]) -> None:
+    """Refuse metadata of the wrong types or out of range (a hand-edited or damaged file)."""
+    rate = meta["rate"]
+    if not isinstance(rate, (int, float)) or isinstance(rate, bool) or not 1 <= rate <= 1000:
+        raise _fail(p, f"damaged recording: rate {rate!r} is not 1-1000 frames per second")
+    for key in ("nq", "cycles"):
+        if not _is_int(meta[key]) or meta[key] < (1 if key == "nq" else 0):
+            raise _fail(p, f"damaged recording: {key} {meta[key]!r} is not a whole number")
+    for key in ("phases", "event_texts"):
+        table = meta[key]
+        if not isinstance(table, list) or not all(isinstance(x, str) for x in table):
+            raise _fail(p, f"damaged recording: {key} is not a list of texts")
+    for key in ("mujoco", "model_sha256"):
+        if not isinstance(meta[key], str):
+            raise _fail(p, f"damaged recording: {key} {meta[key]!r} is not a text")
+    scene = meta.get("scene")
+    if scene is not None and not isinstance(scene, str):
+        raise _fail(p, f"damaged recording: scene {scene!r} is not a path")
+
+
 def _check_consistent(p: Path, a: dict[str, npt.NDArray[Any]], meta: dict[str, Any]) -> None:
-    n = len(a["time"])
+    n = len(a["time"]) if a["time"].ndim else 0
     if n == 0:
         raise _fail(p, "the recording holds no frames")
     for k in FRAME_KEYS:
-        if a[k].shape[:1] != (n,):
+        if a[k].ndim == 0 or a[k].shape[:1] != (n,):
             raise _fail(p, f"damaged recording: {k!r} has {a[k].shape[:1]} rows, time has {n}")
+    numeric = ("time", "qpos", "shape")
+    whole = ("cycle", "slot", "done", "successes", "phase", "event", "shape_frame", "target_geoms")
+    for k in numeric:
+        if a[k].dtype.kind not in "iuf":
+            raise _fail(p, f"damaged recording: {k!r} holds {a[k].dtype}, not numbers")
+    for k in (*whole, "tail"):
+        if a[k].dtype.kind not in "iub":
+            raise _fail(p, f"damaged recording: {k!r} holds {a[k].dtype}, not whole numbers")
+        if a[k].size and int(a[k].min()) < 0:
+            raise _fail(p, f"damaged recording: {k!r} holds a negative number")
     if a["qpos"].shape != (n, int(meta["nq"])):
         raise _fail(p, f"damaged recording: qpos is {a['qpos'].shape}, expected ({n}, nq)")
-    T = len(a["target_geoms"])
-    if a["shape"].ndim != 3 or a["shape"].shape[1:] != (T, SHAPE_WIDTH):
+    T = len(a["target_geoms"]) if a["target_geoms"].ndim == 1 else -1
+    if T < 0 or a["shape"].ndim != 3 or a["shape"].shape[1:] != (T, SHAPE_WIDTH):
         raise _fail(p, f"damaged recording: shape is {a['shape'].shape}")
-    if len(a["shape_frame"]) != len(a["shape"]) or not len(a["shape"]):
+    if (
+        a["shape_frame"].ndim != 1
+        or len(a["shape_frame"]) != len(a["shape"])
+        or not len(a["shape"])
+    ):
         raise _fail(p, "damaged recording: shape_frame and shape disagree")
     if int(a["phase"].max(initial=0)) >= len(meta["phases"]):
         raise _fail(p, "damaged recording: a phase index is out of range")
@@ -406,6 +487,8 @@ def _check_consistent(p: Path, a: dict[str, npt.NDArray[Any]], meta: dict[str, A
         raise _fail(p, "damaged recording: an event index is out of range")
     if not np.all(np.isfinite(a["qpos"])) or not np.all(np.diff(a["time"]) > 0):
         raise _fail(p, "damaged recording: positions not finite or times not increasing")
+    if not np.all(np.isfinite(a["time"])) or not np.all(np.isfinite(a["shape"])):
+        raise _fail(p, "damaged recording: times or shapes not finite")
 
 
 def check_model(path: Path | str, recording: Recording, model: mujoco.MjModel) -> None:
@@ -423,12 +506,14 @@ def check_model(path: Path | str, recording: Recording, model: mujoco.MjModel) -
             f"replay it with mujoco=={meta['mujoco']}",
         )
     if model.nq != int(meta["nq"]) or meta["model_sha256"] != model_identity(model):
-        made = f" (made with --scene {meta['scene']})" if meta.get("scene") else ""
+        made = meta.get("scene")
+        option = "--cell" if made and Path(made).suffix.lower() == ".toml" else "--scene"
+        made_with = f" (made with {option} {made})" if made else ""
         raise _fail(
             path,
-            f"recorded with another scene or cell{made}: model sha256 "
+            f"recorded with another scene or cell{made_with}: model sha256 "
             f"{str(meta['model_sha256'])[:12]}, this one {model_identity(model)[:12]}; pass "
-            "the --scene it was made with",
+            "the scene or cell file it was made with as --scene",
         )
     T = recording.target_geoms
     if len(T) and (T.min() < 0 or T.max() >= model.ngeom):
@@ -522,7 +607,7 @@ def run_meta(
     meta: dict[str, Any] = {
         "kr210_sim": __version__,
         "model_sha256": identity,
-        "scene": str(scene) if scene is not None else None,
+        "scene": str(Path(scene).resolve()) if scene is not None else None,
         "run": {"seed": config.seed, "slot": config.slot, "randomize": config.randomize},
     }
     if report is not None:

@@ -82,6 +82,14 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def capped_workers(asked: int, frames: int | None = None) -> int:
+    """Render processes worth starting for ``asked``: at most one per core, and at most one per
+    frame to draw (``replay --workers 64`` started 64 processes for 39 frames: 60 s, not 2 s).
+    """
+    cap = default_workers() if frames is None else min(default_workers(), max(1, frames))
+    return max(1, min(int(asked), cap))
+
+
 def gl_threads_per_worker(workers: int) -> int:
     """Rasteriser threads for each of ``workers`` render processes (Mesa's ``LP_NUM_THREADS``).
 
@@ -489,7 +497,8 @@ def render_recording(
     """Render ``recording`` to ``settings.path`` (checked against ``model`` by the caller).
 
     Frame ``k`` of the video shows the last recorded state at or before ``k / fps`` [s] of
-    simulated time; at the recording's own rate that is recorded frame ``k``.
+    simulated time; at the recording's own rate that is recorded frame ``k``. ``workers`` is
+    capped at the cores and the frames (:func:`capped_workers`).
 
     Returns:
         Frames written, and the interrupt (Ctrl-C, SIGTERM) that stopped the render early, after
@@ -498,9 +507,11 @@ def render_recording(
     Raises:
         RenderError: When rendering or encoding failed (no MP4 is written).
     """
+    indices = _frame_indices(recording, settings.fps)
+    workers = capped_workers(workers, len(indices))
     pool = RenderPool(model, settings, recording.target_geoms, workers, progress)
     try:
-        for i in _frame_indices(recording, settings.fps):
+        for i in indices:
             pool.feed(
                 recording.arrays["qpos"][i],
                 recording.shapes_at(i),
