@@ -29,6 +29,7 @@ DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
 DEFAULT_IK_REPORT = Path("reports/ik_check.json")
 DEFAULT_VIEW_REPORT = Path("reports/view.json")
+DEFAULT_GRADE_REPORT = Path("reports/grade.json")
 DEFAULT_DEMOS = Path("demos/pick_place.hdf5")
 
 
@@ -101,6 +102,12 @@ def _multiple_of_16(text: str) -> int:
 def _fps(text: str) -> int:
     value = _positive_int(text)
     _check(value <= 120, f"must be 1-120, got {value}")
+    return value
+
+
+def _seconds(text: str) -> float:
+    value: float = _parsed(text, float, "seconds")
+    _check(0.0 < value <= 86400.0, f"must be in (0, 86400] s, got {value}")
     return value
 
 
@@ -354,6 +361,36 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ikc.set_defaults(func=commands.ik_check)
+
+    gr = sub.add_parser("grade", help="grade many students' IK solutions, each in a sandbox")
+    gr.add_argument(
+        "submissions",
+        nargs="+",
+        metavar="SUBMISSION",
+        help="a folder (each .py file or subfolder is a student), a .py file or a SPEC",
+    )
+    gr.add_argument("--cases", type=_count, default=1000, help="random ik-check poses (1000)")
+    gr.add_argument("--cycles", type=_cycles, default=10, help="cycles of each run (10)")
+    gr.add_argument("--seed", type=_seed, default=0, help="seed of the poses and the runs (0)")
+    gr.add_argument("--timeout", type=_seconds, default=120.0, help="seconds per student (120)")
+    gr.add_argument("--ik-timeout", type=_seconds, default=2.0, help="seconds per IK call (2)")
+    gr.add_argument(
+        "--memory", type=_positive_int, default=1024, help="MB of memory per student (1024)"
+    )
+    gr.add_argument(
+        "--workers", type=_positive_int, default=None, help="students at once (one per core)"
+    )
+    gr.add_argument(
+        "--min-success", type=_fraction, default=0.8, help="the run's pass bar (0.8: 8 of 10)"
+    )
+    gr.add_argument(
+        "--report",
+        type=Path,
+        default=DEFAULT_GRADE_REPORT,
+        help=f"JSON report ({DEFAULT_GRADE_REPORT})",
+    )
+    gr.add_argument("--html", type=Path, default=None, help="write the leaderboard page here")
+    gr.set_defaults(func=commands.grade)
 
     demos = sub.add_parser(
         "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"

@@ -313,6 +313,33 @@ def ik_check(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def grade(args: argparse.Namespace) -> int:
+    """``grade``: the leaderboard of a class; 0 when every student passed, 1 otherwise."""
+    import os
+
+    from kr210_sim.eval.grade import GradeSettings, find_students, grade
+
+    settings = GradeSettings(
+        cases=args.cases,
+        cycles=args.cycles,
+        seed=args.seed,
+        timeout=args.timeout,
+        ik_timeout=args.ik_timeout,
+        memory_mb=args.memory,
+        workers=args.workers or len(os.sched_getaffinity(0)),
+        min_success=args.min_success,
+    )
+    result = grade(find_students(args.submissions), settings, args.report, args.html)
+    out = sys.stdout
+    out.write(result.text + "\n")
+    out.write(f"  report: {args.report}\n")
+    if result.html_path is not None:
+        out.write(f"  page: {result.html_path}\n")
+    if result.interrupted is not None:
+        return exit_code(result.interrupted)
+    return 0 if result.all_passed else 1
+
+
 def demos(args: argparse.Namespace) -> int:
     """``demos``: record the scripted expert in the Gymnasium environment."""
     from kr210_sim.envs.demos import record_demos

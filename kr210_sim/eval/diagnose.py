@@ -1,0 +1,206 @@
+"""Name the classic mistakes of a student's IK from their signatures in the ik-check and the run.
+
+Each finding is a short code and a sentence that says what the figures show and what to change:
+
+* ``offset_0054``: the 0.054 m drop between joints 3 and 4 (DH ``a3``) was left out. Every
+  answer then puts gripper_link (and the wrist centre) 54 mm from the pose, with an exact
+  orientation.
+* ``gripper_frame``: the same rotation separates every answer's orientation from the pose's (a
+  fixed frame correction is missing, typically the DH gripper frame against URDF gripper_link,
+  ``R_corr = Rz(pi) Ry(-pi/2)``).
+* ``wrist_flip``: answers that are the other wrist solution (joints 4 and 6 about pi away from
+  the one nearest ``q_ref``), or a cycle that failed on one.
+* ``two_pi``: answers 2 pi away from the nearest twin, or a cycle that failed on one.
+* ``outside_limits``: answers outside the joint limits (with no 2 pi twin inside them).
+* ``raised`` / ``none``: the function raised, or returned None for poses that can be reached.
+
+The figures come from :mod:`kr210_sim.eval.ikcheck` records (and, for ``gripper_frame``, the
+cases' poses, whose rotations the records do not keep).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.robot import kinematics
+
+FloatArray = npt.NDArray[np.float64]
+
+#: The DH offset a3 students leave out [m].
+A3_OFFSET = 0.054
+#: How close to :data:`A3_OFFSET` an answer's position error must be to count [m].
+A3_BAND = 0.003
+#: Share of the answers that must show a signature for the whole function to be named by it.
+MAJORITY = 0.8
+#: Smallest fixed rotation named (below the check's 1 mrad it would pass) [rad].
+MIN_FIXED_ROTATION = 1e-3
+#: How much the rotation error may vary between answers and still be "the same" [rad].
+SAME_ROTATION = 0.01
+
+
+@dataclass(frozen=True, slots=True)
+class Finding:
+    """One named mistake.
+
+    Attributes:
+        code: Short name (see the module doc).
+        text: What the figures show and what to change, one sentence.
+    """
+
+    code: str
+    text: str
+
+    def to_dict(self) -> dict[str, str]:
+        """The report's record."""
+        return {"code": self.code, "text": self.text}
+
+
+def _answered(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [r for r in records if r["q"] is not None]
+
+
+def _rotation_of(R: FloatArray) -> tuple[float, FloatArray]:
+    """Angle [rad] and unit axis of rotation matrix ``R``."""
+    angle = math.acos(max(-1.0, min(1.0, (float(np.trace(R)) - 1.0) / 2.0)))
+    axis = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    n = float(np.linalg.norm(axis))
+    if n < 1e-9:  # angle 0 or pi: the axis is the column of R + I with the largest norm
+        M = R + np.eye(3)
+        axis = M[:, int(np.argmax(np.linalg.norm(M, axis=0)))]
+        n = float(np.linalg.norm(axis)) or 1.0
+    return angle, axis / n
+
+
+def offset_left_out(records: Sequence[dict[str, Any]]) -> Finding | None:
+    """``offset_0054`` when most answers miss by 54 mm (see the module doc)."""
+    answered = _answered(records)
+    if not answered:
+        return None
+    near = [r for r in answered if abs(r["position_error_m"] - A3_OFFSET) <= A3_BAND]
+    if len(near) < MAJORITY * len(answered):
+        return None
+    median = float(np.median([r["position_error_m"] for r in near]))
+    return Finding(
+        "offset_0054",
+        f"{len(near)} of {len(answered)} answers put gripper_link {1000 * median:.1f} mm from "
+        "the pose: the 0.054 m drop between joints 3 and 4 (a3 = -0.054 in the DH table) was "
+        "left out of the wrist-centre triangle",
+    )
+
+
+def fixed_rotation(
+    records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
+) -> Finding | None:
+    """``gripper_frame`` when every answer's orientation is off by the same rotation.
+
+    Args:
+        records: ik-check records.
+        poses: The requested pose (4x4) of each record, in the same order.
+    """
+    rel = []
+    for r, T in zip(records, poses, strict=True):
+        if r["q"] is None:
+            continue
+        Rq = kinematics.forward(np.asarray(r["q"], dtype=np.float64))[:3, :3]
+        rel.append(T[:3, :3].T @ Rq)  # the error, in the requested gripper frame
+    if len(rel) < 3:
+        return None
+    mean_angle = float(np.median([_rotation_of(R)[0] for R in rel]))
+    if mean_angle < MIN_FIXED_ROTATION:
+        return None
+    first = rel[0]
+    spread = max(_rotation_of(first.T @ R)[0] for R in rel)
+    if spread > SAME_ROTATION:
+        return None
+    angle, axis = _rotation_of(first)
+    return Finding(
+        "gripper_frame",
+        f"every answer's orientation is off by the same rotation, {math.degrees(angle):.1f} "
+        f"deg about {np.round(axis, 2).tolist()} of gripper_link: a fixed frame correction is "
+        "missing, e.g. the DH gripper frame against URDF gripper_link "
+        "(R_corr = Rz(pi) Ry(-pi/2))",
+    )
+
+
+def _branch_counts(records: Sequence[dict[str, Any]]) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for r in records:
+        kind = r.get("branch_change")
+        if kind:
+            counts[kind] = counts.get(kind, 0) + 1
+    return counts
+
+
+def _cycles_with(failed: Sequence[dict[str, Any]], words: str) -> list[int]:
+    return [int(c["cycle"]) for c in failed if words in str(c.get("detail") or "")]
+
+
+def diagnose(
+    records: Sequence[dict[str, Any]],
+    poses: Sequence[FloatArray],
+    failed_cycles: Sequence[dict[str, Any]] = (),
+) -> list[Finding]:
+    """The classic mistakes visible in an ik-check and a run.
+
+    Args:
+        records: ik-check records (:func:`kr210_sim.eval.ikcheck.case_record`).
+        poses: The requested pose of each record (4x4).
+        failed_cycles: The run's failed cycles, each with ``cycle`` and ``detail``.
+
+    Returns:
+        The findings, most telling first (empty when nothing is recognised).
+    """
+    found: list[Finding] = []
+    for f in (offset_left_out(records), fixed_rotation(records, poses)):
+        if f is not None:
+            found.append(f)
+    counts = _branch_counts(records)
+    for code, kind, fix in (
+        ("wrist_flip", "wrist flip", "of the wrist's two solutions return the one nearest q_ref"),
+        ("two_pi", "2pi jump", "return the 2 pi twin of each angle nearest q_ref"),
+    ):
+        cycles = _cycles_with(failed_cycles, kind)
+        if counts.get(kind) or cycles:
+            parts = []
+            if counts.get(kind):
+                parts.append(f"{counts[kind]} ik-check answers are a {kind} from q_ref")
+            if cycles:
+                which = ", ".join(str(c) for c in cycles)
+                parts.append(f"cycle{'s' if len(cycles) > 1 else ''} {which} failed on a {kind}")
+                parts[-1] += " on a straight-line move"
+            found.append(Finding(code, f"{'; '.join(parts)}: {fix}"))
+    outside = [r for r in records if r["q"] is not None and not r["within_limits"]]
+    if outside:
+        r = outside[0]
+        found.append(
+            Finding(
+                "outside_limits",
+                f"{len(outside)} answers lie outside the joint limits (e.g. {r['name']}: "
+                f"{r['problem']}): keep only the branches inside the limits",
+            )
+        )
+    raised = [r for r in records if r.get("error")]
+    if raised:
+        found.append(
+            Finding(
+                "raised",
+                f"the function raised on {len(raised)} poses (e.g. {raised[0]['name']}: "
+                f"{raised[0]['error']})",
+            )
+        )
+    nones = [r for r in records if r.get("returned_none")]
+    if nones:
+        found.append(
+            Finding(
+                "none",
+                f"the function returned None for {len(nones)} reachable poses (e.g. "
+                f"{nones[0]['name']})",
+            )
+        )
+    return found

@@ -1,0 +1,544 @@
+"""A user's IK function in a process of its own: a time limit per call, a memory limit, a scratch
+folder, its output captured, and nothing left running afterwards.
+
+:class:`IkSandbox` starts ``python -m kr210_sim.robot.ik_sandbox`` (:func:`serve`), which sets its
+limits, imports the SPEC's module (with :func:`~kr210_sim.robot.user_ik.load_ik`, so a bad SPEC
+gives the same one-line message) and then answers ``solve(T, q_ref)`` calls sent over a pipe.
+The sandbox is callable with the same contract, so ``UserIk(spec, sandbox)`` plans and checks
+like any user IK: an answer is judged by our forward kinematics in *this* process, where the
+user's code cannot reach.
+
+What the user's process gets:
+
+* its own session and process group (a Ctrl-C at the terminal does not reach it; the group is
+  killed with SIGKILL when the sandbox closes) and ``PR_SET_PDEATHSIG`` = SIGKILL, so it dies
+  with the process that started it, even when that one is killed;
+* ``RLIMIT_AS`` (``memory_mb``), ``RLIMIT_FSIZE`` (:data:`FILE_LIMIT_MB`), no core dumps;
+* a scratch folder as its working folder, ``HOME`` and ``TMPDIR``; stdin from ``/dev/null``;
+  ``PYTHONDONTWRITEBYTECODE`` (no ``__pycache__`` beside the user's file); one BLAS thread;
+* with ``capture``, its stdout and stderr read into a bounded buffer (:class:`Captured`: the
+  first and last :data:`KEPT_BYTES` / 2 bytes and the total count).
+
+What a fault becomes: a call with no answer within ``call_timeout`` is an :class:`IkTimeout`
+("no answer within 2 s"), a process that dies (a signal, ``os._exit``, ``sys.exit``, running out
+of memory) an :class:`IkCrashed` with what killed it. With ``stop=False`` (``run``, ``ik-check``,
+``evaluate --ik-timeout``) both are ordinary exceptions raised by the call, so the pose is judged
+unusable (the cycle is ``ik_failed``), and the next call starts a fresh process. With
+``stop=True`` (``grade``) the first fault raises :class:`SandboxStop` (a ``BaseException`` that the
+IK checks do not catch), which ends the student's grading with verdict ``timeout``, ``crashed`` or
+``error``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import select
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import weakref
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, NoReturn
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import IkSpecError
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Default memory limit of the user's process (RLIMIT_AS) [MB]. Python, NumPy and MuJoCo (which
+#: the loader imports; without OpenGL, one BLAS thread) take 135 MB of address space with
+#: examples/ik_dh.py loaded (VmPeak), so about 890 MB are left to the user's code.
+DEFAULT_MEMORY_MB = 1024
+#: The smallest ``memory_mb`` accepted [MB]: room for the interpreter's own imports.
+MIN_MEMORY_MB = 256
+#: Largest file the user's process may write (RLIMIT_FSIZE) [MB].
+FILE_LIMIT_MB = 64
+#: Time the user's module has to import (bounded by ``deadline``) [s].
+LOAD_TIMEOUT = 30.0
+#: Bytes of output kept per process: the first and the last half of it.
+KEPT_BYTES = 32_768
+_HEADER = struct.Struct("!I")
+_MAX_FRAME = 1 << 20
+PR_SET_PDEATHSIG = 1
+
+
+class IkTimeout(Exception):  # named for the message: "raised IkTimeout: no answer within 2 s"
+    """The user's function gave no answer within the time limit."""
+
+
+class IkCrashed(Exception):
+    """The user's process died during a call (a signal, ``os._exit``, ``sys.exit``, out of
+    memory)."""
+
+
+class SandboxStop(BaseException):  # not an error: a verdict, past the checks' except clauses
+    """Grading of this student ends here (``stop=True``).
+
+    Args:
+        verdict: ``timeout``, ``crashed`` or ``error``.
+        detail: One line: what happened.
+    """
+
+    def __init__(self, verdict: str, detail: str) -> None:
+        super().__init__(f"{verdict}: {detail}")
+        self.verdict = verdict
+        self.detail = detail
+
+
+@dataclass(frozen=True, slots=True)
+class Limits:
+    """What the user's process may use.
+
+    Attributes:
+        call_timeout: Time a call may take before it counts as hanging [s]; None: no limit.
+        memory_mb: Address space of the process (RLIMIT_AS) [MB]; None: no limit.
+        load_timeout: Time the import of the user's module may take [s].
+    """
+
+    call_timeout: float | None = 2.0
+    memory_mb: int | None = DEFAULT_MEMORY_MB
+    load_timeout: float = LOAD_TIMEOUT
+
+    def __post_init__(self) -> None:
+        if self.call_timeout is not None and not self.call_timeout > 0:
+            raise ValueError(f"call_timeout must be > 0 s, got {self.call_timeout}")
+        if self.memory_mb is not None and self.memory_mb < MIN_MEMORY_MB:
+            raise ValueError(f"memory_mb must be at least {MIN_MEMORY_MB}, got {self.memory_mb}")
+
+
+class Captured:
+    """Bounded output of a process: the first and last ``keep // 2`` bytes and the byte count."""
+
+    def __init__(self, keep: int = KEPT_BYTES) -> None:
+        self.keep = keep
+        self.head = bytearray()
+        self.tail = bytearray()
+        self.total = 0
+        self._lock = threading.Lock()
+
+    def add(self, chunk: bytes) -> None:
+        """Take ``chunk`` (read from the process)."""
+        half = self.keep // 2
+        with self._lock:
+            self.total += len(chunk)
+            room = half - len(self.head)
+            if room > 0:
+                self.head += chunk[:room]
+                chunk = chunk[room:]
+            if chunk:
+                self.tail += chunk
+                del self.tail[:-half]
+
+    def text(self) -> str:
+        """What was kept, with a line saying how much was left out in the middle."""
+        with self._lock:
+            head, tail = bytes(self.head), bytes(self.tail)
+            dropped = self.total - len(head) - len(tail)
+        out = head.decode("utf-8", "replace")
+        if dropped > 0:
+            out += f"\n[... {dropped} bytes left out ...]\n"
+        return out + tail.decode("utf-8", "replace")
+
+
+def _drain(stream: IO[bytes], sink: Captured) -> None:
+    with contextlib.suppress(OSError, ValueError):
+        while chunk := stream.read1(65536):  # type: ignore[attr-defined]
+            sink.add(chunk)
+
+
+def _send(fd: int, message: dict[str, Any]) -> None:
+    data = json.dumps(message).encode()
+    os.write(fd, _HEADER.pack(len(data)) + data)
+
+
+def _read_exact(fd: int, n: int, deadline: float | None) -> bytes | None:
+    """``n`` bytes from ``fd``; None at end of file; TimeoutError past ``deadline``."""
+    buf = bytearray()
+    while len(buf) < n:
+        if deadline is not None:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fd], [], [], left)[0]:
+                raise TimeoutError
+        chunk = os.read(fd, n - len(buf))
+        if not chunk:
+            return None
+        buf += chunk
+    return bytes(buf)
+
+
+def _receive(fd: int, deadline: float | None) -> dict[str, Any] | None:
+    """One message; None at end of file or for a malformed frame."""
+    head = _read_exact(fd, _HEADER.size, deadline)
+    if head is None:
+        return None
+    (size,) = _HEADER.unpack(head)
+    if size > _MAX_FRAME:
+        return None
+    body = _read_exact(fd, size, deadline)
+    try:
+        message = json.loads(body) if body is not None else None
+    except ValueError:
+        return None
+    return message if isinstance(message, dict) else None
+
+
+def _seconds(s: float) -> str:
+    return f"{s:g} s"
+
+
+def _how_it_ended(code: int | None) -> str:
+    if code is None:
+        return "stopped answering"
+    if code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        return f"was killed by {name}"
+    return f"exited with code {code}"
+
+
+class IkSandbox:
+    """A user's IK function running in a process of its own (see the module doc).
+
+    Args:
+        spec: The SPEC (``path/to/file.py:function`` or ``package.module:function``).
+        limits: Time and memory limits.
+        scratch: The process's working folder (made if missing, kept); None: a temporary folder,
+            removed on :meth:`close`.
+        capture: Keep the process's stdout and stderr (:attr:`stdout`, :attr:`stderr`) instead
+            of letting it write to ours.
+        stop: Raise :class:`SandboxStop` at the first fault instead of an exception per call
+            (and a fresh process for the next call).
+        deadline: ``time.monotonic()`` after which any wait counts as a timeout (the whole
+            student's limit), or None.
+    """
+
+    def __init__(
+        self,
+        spec: str,
+        limits: Limits | None = None,
+        scratch: Path | None = None,
+        capture: bool = False,
+        stop: bool = False,
+        deadline: float | None = None,
+    ) -> None:
+        self.spec = spec
+        self.limits = limits or Limits()
+        self.capture = capture
+        self.stop = stop
+        self.deadline = deadline
+        self.stdout = Captured()
+        self.stderr = Captured()
+        self.starts = 0
+        self.faults: list[str] = []
+        self._own_scratch = scratch is None
+        self.scratch = Path(tempfile.mkdtemp(prefix="kr210_ik_")) if scratch is None else scratch
+        self.scratch.mkdir(parents=True, exist_ok=True)
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._fds: tuple[int, int] = (-1, -1)
+        self._threads: list[threading.Thread] = []
+        self._finalizer = weakref.finalize(self, IkSandbox._cleanup, {}, None, False)
+
+    # ------------------------------------------------------------------ process
+    def _environment(self) -> dict[str, str]:
+        env = dict(os.environ)
+        scratch = str(self.scratch.resolve())
+        env.update(
+            HOME=scratch,
+            TMPDIR=scratch,
+            PYTHONDONTWRITEBYTECODE="1",
+            PYTHONUNBUFFERED="1",
+            OMP_NUM_THREADS="1",
+            OPENBLAS_NUM_THREADS="1",
+            MKL_NUM_THREADS="1",
+            MUJOCO_GL="disable",
+        )
+        root = str(Path(__file__).resolve().parents[2])  # this kr210_sim's folder, first
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
+        return env
+
+    def start(self) -> None:
+        """Start the process and import the user's module.
+
+        Raises:
+            IkSpecError: The module cannot be imported (the loader's one line), or the import
+                took longer than ``load_timeout`` (``stop=False``).
+            SandboxStop: The same with ``stop=True`` (``error``, ``timeout`` or ``crashed``).
+        """
+        self.close_process()
+        req_r, req_w = os.pipe()
+        ans_r, ans_w = os.pipe()
+        limits = {"memory_mb": self.limits.memory_mb, "file_mb": FILE_LIMIT_MB}
+        cmd = [sys.executable, "-B", "-m", "kr210_sim.robot.ik_sandbox", self._child_spec()]
+        cmd += [str(req_r), str(ans_w), str(os.getpid()), json.dumps(limits)]
+        out = subprocess.PIPE if self.capture else None
+        try:
+            proc = subprocess.Popen(
+                cmd,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=out,
+                pass_fds=(req_r, ans_w),
+                cwd=self.scratch,
+                env=self._environment(),
+                start_new_session=True,
+            )
+        finally:
+            os.close(req_r)
+            os.close(ans_w)
+        self._proc, self._fds = proc, (req_w, ans_r)
+        self.starts += 1
+        self._finalizer.detach()
+        self._finalizer = weakref.finalize(
+            self, IkSandbox._cleanup, {"proc": proc, "fds": self._fds}, None, False
+        )
+        if self.capture:
+            assert proc.stdout is not None and proc.stderr is not None
+            for stream, sink in ((proc.stdout, self.stdout), (proc.stderr, self.stderr)):
+                t = threading.Thread(target=_drain, args=(stream, sink), daemon=True)
+                t.start()
+                self._threads.append(t)
+        limit = self.limits.load_timeout
+        try:
+            message = _receive(ans_r, self._until(limit))
+        except TimeoutError:
+            self._fault("timeout", f"importing it took longer than {_seconds(self._limit(limit))}")
+        if message is not None and message.get("ready"):
+            return
+        if message is not None and "error" in message:
+            self.close_process()
+            text = str(message["error"]).replace(self._child_spec(), self.spec)
+            where = self.spec.rpartition(":")[0]
+            text = text.replace(str(Path(where).resolve()), where)
+            if self.stop:
+                raise SandboxStop("error", text)
+            raise IkSpecError(text)
+        self._died("while importing it", message)
+
+    def _child_spec(self) -> str:
+        """The SPEC as the user's process (in the scratch folder) must see it: a file's path made
+        absolute."""
+        where, _, name = self.spec.rpartition(":")
+        if where.endswith(".py") or "/" in where or os.sep in where:
+            return f"{Path(where).resolve()}:{name}"
+        return self.spec
+
+    def _limit(self, limit: float | None) -> float:
+        """The wait for ``limit`` [s] cut to what is left before the deadline."""
+        if self.deadline is None:
+            return math.inf if limit is None else limit
+        left = max(0.0, self.deadline - time.monotonic())
+        return left if limit is None else min(limit, left)
+
+    def _until(self, limit: float | None) -> float | None:
+        wait = self._limit(limit)
+        return None if math.isinf(wait) else time.monotonic() + wait
+
+    def _fault(self, verdict: str, detail: str) -> NoReturn:
+        """Kill the process and raise the fault (``stop``: SandboxStop)."""
+        self.close_process()
+        self.faults.append(detail)
+        if self.stop:
+            if verdict == "timeout" and self.deadline is not None:
+                if time.monotonic() >= self.deadline - 1e-3:
+                    detail = "the time limit for the whole student ran out"
+            raise SandboxStop(verdict, detail)
+        if verdict == "timeout":
+            raise IkTimeout(detail)
+        raise IkCrashed(detail)
+
+    def _died(self, when: str, message: dict[str, Any] | None) -> NoReturn:
+        proc = self._proc
+        code = None
+        if proc is not None:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                code = proc.wait(timeout=2.0)
+        if message is not None and "exit" in message:
+            what = f"called sys.exit({message['exit']!r}) {when}"
+        elif message is not None and message.get("memory"):
+            what = f"ran out of memory {when} (limit {self.limits.memory_mb} MB)"
+        else:
+            what = f"the IK process {_how_it_ended(code)} {when}"
+            if code == -signal.SIGKILL:
+                what += " (out of memory?)"
+        self._fault("crashed", what)
+
+    # ------------------------------------------------------------------ calls
+    def __call__(self, T: FloatArray, q_ref: FloatArray) -> Any:
+        """``solve(T, q_ref)`` in the user's process: the answer as it came (six numbers as an
+        array, None, or the exception it raised, re-raised here with its type's name)."""
+        if self._proc is None or self._proc.poll() is not None:
+            self.start()
+        req_w, ans_r = self._fds
+        T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
+        q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
+        try:
+            _send(req_w, {"T": T_list, "q": q_list})
+        except OSError:
+            self._died("before a call", None)
+        limit = self.limits.call_timeout
+        try:
+            message = _receive(ans_r, self._until(limit))
+        except TimeoutError:
+            self._fault("timeout", f"no answer within {_seconds(self._limit(limit))}")
+        if message is None or "exit" in message or message.get("memory"):
+            self._died("during a call", message)
+        assert message is not None
+        return _answer(message)
+
+    # ------------------------------------------------------------------ ending
+    @staticmethod
+    def _cleanup(state: dict[str, Any], scratch: Path | None, remove: bool) -> None:
+        proc: subprocess.Popen[bytes] | None = state.get("proc")
+        for fd in state.get("fds", ()):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        if proc is not None:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                proc.wait(timeout=5.0)
+        if remove and scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+    def close_process(self) -> None:
+        """Kill the user's process group (if running) and collect its output threads."""
+        if self._proc is None:
+            return
+        self._finalizer.detach()
+        IkSandbox._cleanup({"proc": self._proc, "fds": self._fds}, None, False)
+        self._proc, self._fds = None, (-1, -1)
+        for t in self._threads:
+            t.join(timeout=5.0)
+        self._threads.clear()
+
+    def close(self) -> None:
+        """Kill the process and remove the scratch folder when it was made here."""
+        self.close_process()
+        if self._own_scratch:
+            shutil.rmtree(self.scratch, ignore_errors=True)
+
+    def __enter__(self) -> IkSandbox:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _answer(message: dict[str, Any]) -> Any:
+    """The user's answer from its message (see :func:`_reply`)."""
+    if "raised" in message:
+        kind = type(str(message["raised"]), (Exception,), {})
+        raise kind(str(message.get("message", "")))
+    if message.get("none"):
+        return None
+    if "q" in message:
+        q = np.asarray(message["q"], dtype=np.float64)
+        return q.reshape(tuple(message.get("shape", q.shape)))
+    what = str(message.get("object", "object"))
+    why = str(message.get("why", ""))
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise TypeError(why)
+
+    return type(what, (), {"__array__": refuse, "__float__": refuse})()
+
+
+# ====================================================================== the user's process
+def _reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
+    try:
+        out = fn(T, q_ref)
+    except MemoryError:
+        return {"memory": True}
+    except SystemExit as exc:
+        return {"exit": exc.code if isinstance(exc.code, int | None) else str(exc.code)}
+    except BaseException as exc:  # every fault of the user's code is an answer
+        return {"raised": type(exc).__name__, "message": " ".join(str(exc).split())}
+    if out is None:
+        return {"none": True}
+    try:
+        arr = np.asarray(out, dtype=np.float64)
+    except MemoryError:
+        return {"memory": True}
+    except Exception as exc:
+        return {"object": type(out).__name__, "why": " ".join(str(exc).split())}
+    if arr.size > 64:
+        return {"q": [], "shape": list(arr.shape[:1]) + [0] * (arr.ndim - 1)}
+    return {"q": arr.reshape(-1).tolist(), "shape": list(arr.shape)}
+
+
+def die_with_parent(parent: int) -> None:
+    """Have this process killed (SIGKILL) when its parent ``parent`` (a pid) ends; exit now when
+    it has already ended. Linux only (``PR_SET_PDEATHSIG``); elsewhere nothing is set."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before the line above: go with it
+        os._exit(1)
+
+
+def _set_limits(limits: dict[str, Any], parent: int) -> None:
+    import resource
+
+    die_with_parent(parent)
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    size = int(limits["file_mb"]) << 20
+    resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+    if limits.get("memory_mb"):
+        size = int(limits["memory_mb"]) << 20
+        resource.setrlimit(resource.RLIMIT_AS, (size, size))
+
+
+def serve(argv: list[str]) -> int:
+    """The user's process: set the limits, import the SPEC, answer calls until the pipe closes.
+
+    Args:
+        argv: ``SPEC REQUEST_FD ANSWER_FD PARENT_PID LIMITS_JSON``.
+    """
+    spec, req, ans, parent, limits = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
+    _set_limits(json.loads(limits), parent)
+    from kr210_sim.robot.user_ik import load_ik
+
+    try:
+        fn = load_ik(spec).function
+    except MemoryError:
+        _send(ans, {"memory": True})
+        return 1
+    except IkSpecError as exc:
+        cause = exc.__context__
+        if isinstance(cause, MemoryError):
+            _send(ans, {"memory": True})
+        elif isinstance(cause, SystemExit):
+            _send(ans, {"exit": cause.code if isinstance(cause.code, int | None) else 1})
+        else:
+            _send(ans, {"error": str(exc)})
+        return 1
+    _send(ans, {"ready": True})
+    while True:
+        message = _receive(req, None)
+        if message is None:
+            return 0
+        T = np.asarray(message["T"], dtype=np.float64).reshape(4, 4)
+        q_ref = np.asarray(message["q"], dtype=np.float64)
+        answer = _reply(fn, T, q_ref)
+        _send(ans, answer)
+        if "exit" in answer or "memory" in answer:
+            code = answer.get("exit")
+            os._exit(code if isinstance(code, int) else 1)
+
+
+if __name__ == "__main__":
+    sys.exit(serve(sys.argv[1:]))
