@@ -8,7 +8,7 @@ Each finding is a short code and a sentence that says what the figures show and 
 * ``gripper_frame``: the same rotation separates every answer's orientation from the pose's (a
   fixed frame correction is missing, typically the DH gripper frame against URDF gripper_link,
   ``R_corr = Rz(pi) Ry(-pi/2)``).
-* ``wrist_flip``: answers that are the other wrist solution (joints 4 and 6 about pi away from
+* ``wrist_flip``: answers (that reproduce their pose) that are the other wrist solution (joints 4 and 6 about pi away from
   the one nearest ``q_ref``), or a cycle that failed on one.
 * ``two_pi``: answers 2 pi away from the nearest twin, or a cycle that failed on one.
 * ``outside_limits``: answers outside the joint limits (with no 2 pi twin inside them).
@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.robot import kinematics
+from kr210_sim.robot.ik_guard import ORIENTATION_TOL, POSITION_TOL
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -129,10 +130,15 @@ def fixed_rotation(
 
 
 def _branch_counts(records: Sequence[dict[str, Any]]) -> dict[str, int]:
+    """Branch changes among the answers that reproduce their pose (a wrong answer is no
+    branch)."""
     counts: dict[str, int] = {}
     for r in records:
         kind = r.get("branch_change")
-        if kind:
+        exact = r["q"] is not None and (
+            r["position_error_m"] <= POSITION_TOL and r["orientation_error_rad"] <= ORIENTATION_TOL
+        )
+        if kind and exact:
             counts[kind] = counts.get(kind, 0) + 1
     return counts
 

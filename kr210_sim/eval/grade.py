@@ -350,7 +350,7 @@ def grade(
         records, settings.config(), settings.workers, time.monotonic() - wall0, interrupted
     )
     if report_path is not None:
-        from kr210_sim.score.report import write_json_atomic
+        from kr210_sim.util.outputs import write_json_atomic
 
         write_json_atomic(report_path, report)
     written = None

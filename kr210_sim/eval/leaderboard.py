@@ -59,8 +59,8 @@ def build_report(
         wall_time: Wall-clock time of the grading [s].
         interrupted: The interrupt that stopped it, or None.
     """
-    from kr210_sim.score.report import versions
     from kr210_sim.util.interrupts import signal_name
+    from kr210_sim.util.versions import versions
 
     counts = {v: 0 for v in VERDICTS}
     for r in records:

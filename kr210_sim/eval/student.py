@@ -27,8 +27,8 @@ from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop, die_with_parent
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.score.report import write_json_atomic
 from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+from kr210_sim.util.outputs import write_json_atomic
 
 #: The verdicts, best first (the leaderboard's order).
 VERDICTS = ("pass", "fail", "timeout", "crashed", "error")

@@ -1,0 +1,98 @@
+"""The classic IK mistakes named from their signatures (eval/diagnose.py)."""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kr210_sim.eval.diagnose import diagnose
+from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.user_ik import UserIk
+
+
+@pytest.fixture(scope="module")
+def cases() -> list[Case]:
+    return fixed_cases() + random_cases(60, seed=4)
+
+
+def _codes(cases: list[Case], fn: Callable[..., Any], failed: tuple[Any, ...] = ()) -> list[str]:
+    records = check(UserIk("test:solve", fn), cases, io.StringIO())
+    return [f.code for f in diagnose(records, [c.T for c in cases], failed)]
+
+
+def _rz(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    out = np.eye(4)
+    out[:2, :2] = [[c, -s], [s, c]]
+    return out
+
+
+def test_a_correct_ik_shows_nothing(cases: list[Case]) -> None:
+    assert _codes(cases, kinematics.nearest) == []
+
+
+def test_the_missing_offset_is_named_with_its_54_mm(cases: list[Case], no_offset_ik: str) -> None:
+    from kr210_sim.robot.user_ik import load_ik
+
+    fn = load_ik(no_offset_ik).function
+    records = check(UserIk(no_offset_ik, fn), cases, io.StringIO())
+    found = diagnose(records, [c.T for c in cases])
+    assert found[0].code == "offset_0054"
+    assert "54.0 mm from the pose" in found[0].text
+
+
+def test_a_fixed_frame_rotation_is_named_with_its_angle(cases: list[Case]) -> None:
+    X = _rz(0.3)  # the student solves for the pose turned by a fixed 0.3 rad about its z
+
+    def turned(T: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return kinematics.nearest(T @ X, q)
+
+    records = check(UserIk("t:s", turned), cases, io.StringIO())
+    found = diagnose(records, [c.T for c in cases])
+    assert [f.code for f in found][:1] == ["gripper_frame"]
+    assert "17.2 deg about [0.0, 0.0, 1.0]" in found[0].text
+    # A rotation error that varies from answer to answer is not "fixed".
+    rng = np.random.default_rng(0)
+
+    def wobbly(T: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return kinematics.nearest(T @ _rz(rng.uniform(0.1, 0.5)), q)
+
+    assert "gripper_frame" not in _codes(cases, wobbly)
+
+
+def test_wrist_flips_and_2pi_jumps_are_named(cases: list[Case]) -> None:
+    def flipped(T: np.ndarray, q: np.ndarray) -> np.ndarray:
+        a = kinematics.nearest(T, q).copy()
+        a[3], a[4], a[5] = a[3] + math.pi, -a[4], a[5] + math.pi  # the other wrist solution
+        return a
+
+    assert "wrist_flip" in _codes(cases, flipped)
+    failed = (
+        {"cycle": 3, "detail": "approach line sample 4 [..]: t:s moves joint_1 ...: 2pi jump"},
+    )
+    codes = _codes(cases, kinematics.nearest, failed)
+    assert codes == ["two_pi"]
+
+
+def test_answers_outside_the_limits_raises_and_nones_are_counted(cases: list[Case]) -> None:
+    def outside(T: np.ndarray, q: np.ndarray) -> Any:
+        a = kinematics.nearest(T, q).copy()
+        if a[0] > 0.5:
+            raise ZeroDivisionError("atan2 by hand")
+        if a[0] < -0.5:
+            return None
+        a[4] = 3.0  # past joint_5's 125 deg, no twin inside
+        return a
+
+    records = check(UserIk("t:s", outside), cases, io.StringIO())
+    found = {f.code: f.text for f in diagnose(records, [c.T for c in cases])}
+    assert set(found) == {"outside_limits", "raised", "none"}
+    n_out = sum(r["q"] is not None and not r["within_limits"] for r in records)
+    assert found["outside_limits"].startswith(f"{n_out} answers lie outside the joint limits")
+    assert "ZeroDivisionError: atan2 by hand" in found["raised"]

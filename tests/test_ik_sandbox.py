@@ -1,0 +1,241 @@
+"""A user's IK in a process of its own (robot/ik_sandbox.py): answers, limits, faults, cleanup."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kr210_sim.errors import IkSpecError
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.ik_guard import assess
+from kr210_sim.robot.ik_sandbox import (
+    Captured,
+    IkCrashed,
+    IkSandbox,
+    IkTimeout,
+    Limits,
+    SandboxStop,
+)
+from kr210_sim.robot.user_ik import load_ik
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
+Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+
+
+def _file(folder: Path, name: str, body: str) -> str:
+    path = folder / f"{name}.py"
+    path.write_text(textwrap.dedent(body))
+    return f"{path}:solve"
+
+
+def _gone(pid: int, within: float = 5.0) -> bool:
+    end = time.monotonic() + within
+    while time.monotonic() < end:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def test_answers_are_those_of_the_function_in_process(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    g = kinematics.geometry()
+    here = load_ik(f"{EXAMPLE}:solve").function
+    with IkSandbox(f"{EXAMPLE}:solve", scratch=tmp_path / "scratch") as box:
+        for q in rng.uniform(g.lower, g.upper, size=(20, 6)):
+            T = kinematics.forward(q)
+            np.testing.assert_array_equal(box(T, q), np.asarray(here(T, q)))  # bit for bit
+        assert box.starts == 1
+    assert (tmp_path / "scratch").is_dir()  # a given scratch folder is kept
+
+
+def test_raised_none_and_junk_are_judged_as_in_process(tmp_path: Path) -> None:
+    spec = _file(
+        tmp_path,
+        "odd",
+        """
+        def solve(T, q):
+            if q[0] > 0.5:
+                raise ValueError("no  branch\\nhere")
+            if q[0] > 0.0:
+                return None
+            if q[0] > -0.5:
+                return "six angles"
+            return [[1.0, 2.0], [3.0, 4.0]]
+        """,
+    )
+    T = kinematics.forward(Q)
+    with IkSandbox(spec) as box:
+        problems = [assess(T, Q, _raw(box, T, q0)).problem for q0 in (0.7, 0.3, -0.3, -0.7)]
+    assert problems[0] == "raised ValueError: no branch here"
+    assert problems[1] == "returned None (unreachable)"
+    assert problems[2].startswith("returned str, not six numbers (")
+    assert problems[3] == "returned shape (2, 2), not six angles"
+
+
+def _raw(box: IkSandbox, T: np.ndarray, q0: float) -> object:
+    q = Q.copy()
+    q[0] = q0
+    try:
+        return box(T, q)
+    except Exception as exc:
+        return exc
+
+
+def test_a_hanging_call_is_a_timeout_and_the_next_call_starts_afresh(tmp_path: Path) -> None:
+    spec = _file(
+        tmp_path,
+        "sometimes",
+        """
+        import time
+        def solve(T, q):
+            if q[0] > 0:
+                while True:
+                    time.sleep(0.01)
+            return list(q)
+        """,
+    )
+    T = kinematics.forward(Q)
+    with IkSandbox(spec, Limits(call_timeout=0.5)) as box:
+        t0 = time.monotonic()
+        with pytest.raises(IkTimeout, match=r"^no answer within 0\.5 s$"):
+            box(T, Q)
+        assert time.monotonic() - t0 < 3.0
+        assert box._proc is None  # killed
+        q = -Q
+        np.testing.assert_array_equal(box(T, q), q)  # a fresh process answers
+        assert box.starts == 2
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("import os\ndef solve(T, q):\n    os._exit(3)\n", "the IK process exited with code 3"),
+        ("import sys\ndef solve(T, q):\n    sys.exit(4)\n", r"called sys.exit\(4\)"),
+        (
+            "import os, signal\ndef solve(T, q):\n    os.kill(os.getpid(), signal.SIGSEGV)\n",
+            "the IK process was killed by SIGSEGV",
+        ),
+        (
+            "def solve(T, q):\n    x = bytearray(8 << 30)\n    return x\n",
+            "ran out of memory during a call \\(limit 512 MB\\)",
+        ),
+    ],
+)
+def test_a_dead_process_is_a_crash_with_what_killed_it(
+    tmp_path: Path, body: str, message: str
+) -> None:
+    spec = _file(tmp_path, "dies", body)
+    with IkSandbox(spec, Limits(memory_mb=512)) as box:
+        with pytest.raises(IkCrashed, match=message):
+            box(kinematics.forward(Q), Q)
+
+
+def test_stop_mode_ends_with_a_verdict(tmp_path: Path) -> None:
+    hang = _file(tmp_path, "hang", "def solve(T, q):\n    while True:\n        pass\n")
+    with IkSandbox(hang, Limits(call_timeout=0.3), stop=True) as box:
+        with pytest.raises(SandboxStop) as info:
+            box(kinematics.forward(Q), Q)
+    assert (info.value.verdict, info.value.detail) == ("timeout", "no answer within 0.3 s")
+    # The whole student's deadline cuts a call's limit and is named as the cause.
+    with IkSandbox(hang, Limits(call_timeout=30), stop=True, deadline=time.monotonic()) as box:
+        with pytest.raises(SandboxStop, match="the time limit for the whole student ran out"):
+            box(kinematics.forward(Q), Q)
+    bad = _file(tmp_path, "bad", "def solve(T, q)\n    return q\n")
+    with IkSandbox(bad, stop=True) as box:
+        with pytest.raises(SandboxStop) as info:
+            box.start()
+    assert info.value.verdict == "error"
+    assert info.value.detail.endswith("bad.py line 1: expected ':'")
+
+
+def test_a_bad_spec_is_the_loaders_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("mine.py").write_text("def other(T, q):\n    return q\n")
+    with IkSandbox("mine.py:solve") as box:  # a relative path, resolved where we are
+        with pytest.raises(IkSpecError) as info:
+            box.start()
+    assert (
+        str(info.value)
+        == "--ik 'mine.py:solve': mine.py has no function 'solve' (it defines: other)"
+    )
+
+
+def test_output_is_captured_bounded_and_nothing_is_written_beside_the_file(
+    tmp_path: Path,
+) -> None:
+    folder = tmp_path / "student"
+    folder.mkdir()
+    spec = _file(
+        folder,
+        "chatty",
+        """
+        import sys, os
+        def solve(T, q):
+            print("first line")
+            for i in range(20000):
+                print("x" * 99)
+            print("last line", file=sys.stderr)
+            open("scratch_file.txt", "w").write(os.getcwd())
+            return list(q)
+        """,
+    )
+    scratch = tmp_path / "scratch"
+    with IkSandbox(spec, capture=True, scratch=scratch) as box:
+        box(kinematics.forward(Q), Q)
+        box.close_process()
+        assert box.stdout.total == len("first line\n") + 20000 * 100
+        text = box.stdout.text()
+    assert text.startswith("first line\n") and len(text) < 40_000
+    assert "bytes left out ..." in text
+    assert box.stderr.text() == "last line\n"
+    assert (scratch / "scratch_file.txt").read_text() == str(scratch.resolve())
+    assert sorted(p.name for p in folder.iterdir()) == ["chatty.py"]  # no __pycache__
+
+
+def test_captured_keeps_head_and_tail() -> None:
+    c = Captured(keep=10)
+    for chunk in (b"abc", b"defgh", b"ijklmnop", b"qrs"):
+        c.add(chunk)
+    assert (bytes(c.head), bytes(c.tail), c.total) == (b"abcde", b"opqrs", 19)
+    assert c.text() == "abcde\n[... 9 bytes left out ...]\nopqrs"
+
+
+def test_the_process_dies_with_its_parent(tmp_path: Path) -> None:
+    hang = _file(tmp_path, "hang", "def solve(T, q):\n    while True:\n        pass\n")
+    pid_file = tmp_path / "pid"
+    script = textwrap.dedent(
+        f"""
+        import numpy as np
+        from kr210_sim.robot.ik_sandbox import IkSandbox, Limits
+        box = IkSandbox({hang!r}, Limits(call_timeout=600))
+        box.start()
+        open({str(pid_file)!r}, "w").write(str(box._proc.pid))
+        box(np.eye(4), np.zeros(6))
+        """
+    )
+    parent = subprocess.Popen([sys.executable, "-c", script])
+    try:
+        end = time.monotonic() + 60
+        while not (pid_file.exists() and pid_file.read_text()) and time.monotonic() < end:
+            time.sleep(0.05)
+        child = int(pid_file.read_text())
+        time.sleep(0.3)
+        os.kill(parent.pid, signal.SIGKILL)  # no cleanup of its own can run
+        parent.wait(timeout=10)
+        assert _gone(child), "the user's process outlived its parent"
+    finally:
+        parent.kill()
+        parent.wait()
