@@ -169,7 +169,7 @@ def test_sigterm_keeps_the_students_finished_and_leaves_nothing_running(tmp_path
         assert "correct" in line and " pass " in line, line
         time.sleep(0.5)
         proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=60)
+        _, stderr = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 143, stderr

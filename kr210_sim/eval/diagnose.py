@@ -8,8 +8,8 @@ Each finding is a short code and a sentence that says what the figures show and 
 * ``gripper_frame``: the same rotation separates every answer's orientation from the pose's (a
   fixed frame correction is missing, typically the DH gripper frame against URDF gripper_link,
   ``R_corr = Rz(pi) Ry(-pi/2)``).
-* ``wrist_flip``: answers (that reproduce their pose) that are the other wrist solution (joints 4 and 6 about pi away from
-  the one nearest ``q_ref``), or a cycle that failed on one.
+* ``wrist_flip``: answers (that reproduce their pose) that are the other wrist solution (joints
+  4 and 6 about pi away from the one nearest ``q_ref``), or a cycle that failed on one.
 * ``two_pi``: answers 2 pi away from the nearest twin, or a cycle that failed on one.
 * ``outside_limits``: answers outside the joint limits (with no 2 pi twin inside them).
 * ``raised`` / ``none``: the function raised, or returned None for poses that can be reached.
