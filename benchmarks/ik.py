@@ -36,7 +36,7 @@ def per_second(fn, arg, n: int, repeats: int = 5) -> float:  # type: ignore[no-u
 
 
 def main() -> None:
-    g = kin.geometry()
+    g = kin.committed().geometry
     rng = np.random.default_rng(0)
     n = 200_000
     q = rng.uniform(g.lower, g.upper, size=(n, 6))

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from kr210_sim.eval.ikcheck import check, fixed_cases, random_cases, summarise
+from kr210_sim.robot.kinematics import committed
 from kr210_sim.robot.user_ik import load_ik
 from kr210_sim.sim.runner import RunConfig, Runner
 
@@ -34,12 +35,13 @@ def main() -> None:
         "no offset": f"{broken}:solve",
     }
     t = time.perf_counter()
-    cases = fixed_cases() + random_cases(args.cases, 0)
+    k = committed()
+    cases = fixed_cases(k) + random_cases(k, args.cases, 0)
     print(f"building {len(cases)} cases: {time.perf_counter() - t:6.2f} s")
     for name, spec in specs.items():
         ik = load_ik(spec)
         t = time.perf_counter()
-        records = check(ik, cases)
+        records = check(k, ik, cases)
         wall = time.perf_counter() - t
         s = summarise(records)
         w = s["wall_time_s"]

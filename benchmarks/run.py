@@ -5,7 +5,7 @@ Run: ``python benchmarks/run.py [--cycles N] [--seed S] [--repeat R]``. Prints f
 * Headline: the best of ``--repeat`` plain runs (no timers), as wall time and as CPU time of this
   process (the CPU figure is the one to compare on a shared machine: other processes do not
   inflate it).
-* Shares: one instrumented run wraps the hot functions with timers (IK = ``kinematics.nearest``,
+* Shares: one instrumented run wraps the hot functions with timers (IK = ``Kinematics.nearest``,
   planning = trajectory construction, sampling = ``sample_many``, physics = ``mujoco.mj_step``;
   bookkeeping is the rest of the control loop and the runner).
 * Overhead: the control loop (``Cell.track``) and the whole run against ``mj_step`` alone for the
@@ -75,7 +75,8 @@ def main() -> None:
     print(f"steps per second   : {steps / cpu:10,.0f} (whole loop, CPU time)")
 
     # Instrumented run: where the time goes.
-    task.kinematics.nearest = timed("IK (nearest)", task.kinematics.nearest)  # type: ignore[method-assign]
+    nearest = task.Kinematics.nearest
+    task.Kinematics.nearest = timed("IK (nearest)", nearest)  # type: ignore[method-assign]
     task.plan_ptp = timed("trajectory planning", task.plan_ptp)  # type: ignore[assignment]
     line = task.plan_cartesian_line
     task.plan_cartesian_line = timed("trajectory planning", line)  # type: ignore[assignment]

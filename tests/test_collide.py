@@ -17,13 +17,14 @@ from kr210_sim.plan.planner import Planner
 from kr210_sim.plan.trajectory import JointLimits, plan_ptp
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import committed
 
 CELLS = PUBLISHED_CELL.parent
 
 
 @pytest.fixture(scope="module")
 def checker() -> CollisionChecker:
-    return CollisionChecker(load_model())
+    return CollisionChecker(load_model(), committed())
 
 
 def test_samples_are_at_most_1_cm_and_1_deg_apart() -> None:
@@ -32,7 +33,7 @@ def test_samples_are_at_most_1_cm_and_1_deg_apart() -> None:
     for _ in range(5):
         q0, q1 = rng.uniform(-1.0, 1.0, (2, 6))
         traj = plan_ptp(q0, q1, limits)
-        qs = check_samples(traj)
+        qs = check_samples(traj, committed())
         assert np.allclose(qs[0], q0) and np.allclose(qs[-1], q1, atol=1e-9)
         assert np.abs(np.diff(qs, axis=0)).max() <= SAMPLE_ANGLE * 1.01
         p = kinematics.forward(qs)[:, :3, 3]
@@ -68,7 +69,7 @@ def test_the_held_target_is_checked_against_the_cell(checker: CollisionChecker) 
 
 def test_a_column_in_the_swing_is_detoured_around() -> None:
     model = model_for(cell=CELLS / "column.toml")
-    planner = Planner(load_robot(), MotionConfig(), None, CollisionChecker(model))
+    planner = Planner(load_robot(), MotionConfig(), None, CollisionChecker(model, committed()))
     ready = planner.ready_q
     slot = np.array([2.6, 0.0, 1.681])
     direct = planner.ptp(
@@ -87,6 +88,6 @@ def test_no_path_names_what_blocks() -> None:
     model.geom_size[i] = (3.0, 3.0, 1.5)  # a wall around everything: no detour clears it
     model.geom_rbound[i] = math.sqrt(3**2 + 3**2 + 1.5**2)
     model.geom_aabb[i, 3:] = (3.0, 3.0, 1.5)
-    planner = Planner(load_robot(), MotionConfig(), None, CollisionChecker(model))
+    planner = Planner(load_robot(), MotionConfig(), None, CollisionChecker(model, committed()))
     with pytest.raises(NoPathError, match=r"move: .* against obstacle_1 at q \["):
         planner.plan_grasp(planner.ready_q, np.array([2.6, 0.0, 1.681]), 0.05, 0.25)

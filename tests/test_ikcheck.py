@@ -16,18 +16,20 @@ from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.user_ik import UserIk, load_ik
 
+KIN = kinematics.committed()
+
 WORKED = f"{Path(__file__).resolve().parents[1] / 'examples' / 'ik_dh.py'}:solve"
 
 
 def test_the_fixed_cases() -> None:
-    cases = fixed_cases()
+    cases = fixed_cases(KIN)
     groups = [c.group for c in cases]
     assert groups.count("cell") == 9 * 4 + 9  # four poses per slot, nine drop spots
     assert (groups.count("zero"), groups.count("singular"), groups.count("limits")) == (1, 7, 12)
     assert len({c.name for c in cases}) == len(cases)
     (zero,) = (c for c in cases if c.group == "zero")
     np.testing.assert_allclose(zero.T[:3, 3], (2.153, 0.0, 1.946), atol=1e-12)
-    g = kinematics.geometry()
+    g = KIN.geometry
     for c in cases:
         q = kinematics.nearest(c.T, c.q_ref)  # every case is reachable inside the limits
         assert np.all(q >= g.lower - 1e-9) and np.all(q <= g.upper + 1e-9)
@@ -44,7 +46,7 @@ def test_the_fixed_cases() -> None:
 
 
 def test_random_cases_are_seeded() -> None:
-    a, b, c = random_cases(5, 1), random_cases(5, 1), random_cases(5, 2)
+    a, b, c = (random_cases(KIN, 5, s) for s in (1, 1, 2))
     np.testing.assert_array_equal(a[3].T, b[3].T)
     assert not np.allclose(a[3].T, c[3].T)
 

@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from kr210_sim.errors import Kr210SimError, UnreachablePoseError
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.errors import IkFailedError, Kr210SimError, UnreachablePoseError
+from kr210_sim.plan.planner import Planner, gripper_pose
 from kr210_sim.robot import kinematics as kin
+from kr210_sim.robot.description import RobotDescription, load_robot
+from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.score.metrics import gripper_tracking_error_mm
+from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.paths import URDF_PATH
 
-G = kin.geometry()
+G = kin.committed().geometry
 
 
 def random_q(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -210,3 +217,88 @@ def test_invalid_q() -> None:
     bad[1, 0, 0] = 2.0
     with pytest.raises(ValueError, match="orthonormal"):
         kin.inverse(bad)
+
+
+# -- the kinematics of the description given ---------------------------------------------------
+Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+
+
+def _longer_link_2(extra: float) -> RobotDescription:
+    """The committed description with link_2 (joint_2 to joint_3) ``extra`` [m] longer."""
+    robot = load_robot()
+    j3 = robot.joints["joint_3"]
+    origin = j3.origin.copy()
+    origin[2, 3] += extra
+    return dataclasses.replace(
+        robot, joints={**robot.joints, "joint_3": dataclasses.replace(j3, origin=origin)}
+    )
+
+
+def test_committed_description_keeps_todays_figures() -> None:
+    ours = kin.Kinematics(load_robot())
+    assert ours.geometry == G
+    golden = [
+        [0.751795650393, -0.508633676091, 0.419636847282, 2.23040283168],
+        [0.515917515459, 0.850049497261, 0.106042300279, 0.775802487224],
+        [-0.410648776076, 0.136775859538, 0.901476537107, 1.946676543196],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
+    np.testing.assert_allclose(ours.forward(Q), golden, atol=1e-11)
+    np.testing.assert_array_equal(ours.forward(Q), kin.forward(Q))
+    np.testing.assert_array_equal(ours.nearest(kin.forward(Q), Q), kin.nearest(kin.forward(Q), Q))
+
+
+def test_a_changed_link_length_changes_the_kinematics_by_exactly_that() -> None:
+    longer = kin.Kinematics(_longer_link_2(0.1))
+    g = longer.geometry
+    assert g.a2 == pytest.approx(G.a2 + 0.1, abs=1e-15)
+    assert (g.d0, g.h1, g.a1, g.a3x, g.a3z, g.dg) == (G.d0, G.h1, G.a1, G.a3x, G.a3z, G.dg)
+    # link_2 turns about joint_2 by q2 from upright: the gripper moves by 0.1 m along it
+    for q2 in (0.0, 0.5, -0.4):
+        q = np.array([0.0, q2, 0.0, 0.0, 0.0, 0.0])
+        moved = longer.forward(q)[:3, 3] - kin.forward(q)[:3, 3]
+        np.testing.assert_allclose(moved, [0.1 * math.sin(q2), 0.0, 0.1 * math.cos(q2)], atol=1e-12)
+    # inverse kinematics in the changed geometry: every solution reaches the pose in it
+    T = longer.forward(Q)
+    sols = longer.inverse(T)
+    assert len(sols)
+    np.testing.assert_allclose(
+        longer.forward(sols), np.broadcast_to(T, (len(sols), 4, 4)), atol=1e-9
+    )
+    q = longer.nearest(T, Q)
+    np.testing.assert_allclose(q, Q, atol=1e-9)
+    assert np.linalg.norm(kin.forward(q)[:3, 3] - T[:3, 3]) > 0.05  # not the committed arm's
+
+
+def test_planner_runner_and_scoring_use_the_robot_they_are_given() -> None:
+    robot = _longer_link_2(0.1)
+    longer = kin.Kinematics(robot)
+    planner = Planner(robot, MotionConfig())
+    q_ready = planner.ready_q
+    T = gripper_pose((2.2, 0.4, 1.2), 0.3)
+    q = planner.solve(T, q_ready, "test")
+    np.testing.assert_allclose(longer.forward(q), T, atol=1e-9)
+    assert np.linalg.norm(kin.forward(q)[:3, 3] - T[:3, 3]) > 0.05
+    line = planner.lin("approach", q, gripper_pose((2.2, 0.4, 1.0), 0.3))
+    np.testing.assert_allclose(longer.forward(line.q_end)[:3, 3], [2.2, 0.4, 1.0], atol=1e-9)
+    # a user's IK is judged with the robot's own forward kinematics: the committed arm's
+    # answers miss the longer arm's pose
+    judged = Planner(robot, MotionConfig(), UserIk("committed:nearest", kin.nearest))
+    with pytest.raises(IkFailedError, match="misses the pose by"):
+        judged.solve(T, q_ready, "test")
+    # the tracking error seen at the gripper: joint_2 off by d turns the gripper about the
+    # joint_2 axis, a chord 2 r sin(d / 2) with r the gripper's distance from that axis
+    d = 0.002
+    q_meas = q + np.array([0.0, d, 0.0, 0.0, 0.0, 0.0])
+    for k in (longer, kin.committed()):
+        g = k.geometry
+        c1, s1 = math.cos(q[0]), math.sin(q[0])
+        p = k.forward(q)[:3, 3]
+        joint_2 = np.array([g.a1 * c1, g.a1 * s1, g.d0 + g.h1])
+        r = np.linalg.norm(np.cross(p - joint_2, [-s1, c1, 0.0]))
+        err = gripper_tracking_error_mm(k, [q_meas], [q])
+        assert err[0] == pytest.approx(2000.0 * r * math.sin(d / 2), rel=1e-9)
+    # the runner plans, checks paths and scores with the description it is given
+    runner = Runner(RunConfig(cycles=1), robot=robot)
+    assert runner.planner.kinematics.robot is robot
+    assert runner.planner.checker is not None and runner.planner.checker.kin.robot is robot

@@ -28,6 +28,7 @@ from kr210_sim.robot.ik_guard import (
 from kr210_sim.robot.user_ik import UserIk, load_ik
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
+KIN = kinematics.committed()
 Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
 
 
@@ -130,7 +131,7 @@ class _NeedsGrad:
 
 def test_a_correct_answer_passes_with_exact_errors() -> None:
     T = kinematics.forward(Q)
-    a = assess(T, Q, list(Q))
+    a = assess(KIN, T, Q, list(Q))
     assert a.passed and a.within_limits and a.wrapped == ()
     assert a.position_error < 1e-12 and a.orientation_error < 1e-12 and a.max_move == 0.0
 
@@ -154,7 +155,7 @@ def test_a_correct_answer_passes_with_exact_errors() -> None:
     ],
 )
 def test_unusable_answers(raw: Any, problem: str) -> None:
-    a = assess(kinematics.forward(Q), Q, raw)
+    a = assess(KIN, kinematics.forward(Q), Q, raw)
     assert not a.passed
     assert problem in a.problem, a.problem
     assert (a.error != "") == isinstance(raw, BaseException)
@@ -163,52 +164,52 @@ def test_unusable_answers(raw: Any, problem: str) -> None:
 def test_errors_are_measured_against_our_forward_kinematics() -> None:
     T = kinematics.forward(Q)
     # joint_6 turns about the gripper's x axis through gripper_link: orientation only.
-    a = assess(T, Q, Q + np.array([0, 0, 0, 0, 0, 0.002]))
+    a = assess(KIN, T, Q, Q + np.array([0, 0, 0, 0, 0, 0.002]))
     assert a.position_error < 1e-12
     assert a.orientation_error == pytest.approx(0.002, rel=1e-9)
     assert not a.passed and "2 mrad" in a.problem
-    assert assess(T, Q, Q + np.array([0, 0, 0, 0, 0, 0.0005])).passed  # 0.5 mrad: fine
+    assert assess(KIN, T, Q, Q + np.array([0, 0, 0, 0, 0, 0.0005])).passed  # 0.5 mrad: fine
     # joint_1 by 1 mrad moves gripper_link about its axis: |p_xy| * 1e-3
-    b = assess(T, Q, Q + np.array([0.001, 0, 0, 0, 0, 0]))
+    b = assess(KIN, T, Q, Q + np.array([0.001, 0, 0, 0, 0, 0]))
     r = float(np.hypot(*T[:2, 3]))
     assert b.position_error == pytest.approx(r * 0.001, rel=1e-6)
     assert b.orientation_error == pytest.approx(0.001, rel=1e-6)
-    wc = T[:3, 3] - kinematics.geometry().dg * T[:3, 0]
+    wc = T[:3, 3] - KIN.geometry.dg * T[:3, 0]
     assert b.wrist_centre_error == pytest.approx(np.hypot(*wc[:2]) * 0.001, rel=1e-6)
 
 
 def test_twins_outside_the_limits_are_wrapped_inside_and_others_kept() -> None:
     T = kinematics.forward(Q)
     q = Q + np.array([-2 * math.pi, 0, 0, 0, 0, 0])  # q1 = -344 deg: outside [-185, 185]
-    a = assess(T, Q, q)
+    a = assess(KIN, T, Q, q)
     assert a.passed and a.wrapped == (0,)
     np.testing.assert_allclose(a.q, Q, atol=1e-12)
     kept = Q + np.array([0, 0, 0, -2 * math.pi, 0, 0])  # q4 = -331 deg: inside [-350, 350]
-    b = assess(T, Q, kept)
+    b = assess(KIN, T, Q, kept)
     assert b.passed and b.wrapped == ()
     assert b.max_move == pytest.approx(2 * math.pi) and b.max_move_joint == 3
     # q3 = 65 deg + 5 deg has no twin inside [-210, 65]: outside
     q3 = Q.copy()
     q3[2] = math.radians(70)
-    assert into_limits(q3, Q)[1] == ()
+    assert into_limits(KIN, q3, Q)[1] == ()
 
 
 def test_of_two_twins_inside_the_limits_the_one_nearest_q_ref_is_taken() -> None:
     ref = np.array([0.0, 0, 0, 3.0, 0, 0])
     q = np.array([0.0, 0, 0, 3.0 + 2 * math.pi, 0, 0])  # 1 turn out: twins 3.0 and 3.0 - 2 pi
-    out, moved = into_limits(q, ref)
+    out, moved = into_limits(KIN, q, ref)
     assert moved == (3,) and out[3] == pytest.approx(3.0)
     for v in (-3.0 - 2 * math.pi, -3.0 + 4 * math.pi):
-        assert into_limits(np.array([0.0, 0, 0, v, 0, 0]), -ref)[0][3] == pytest.approx(-3.0)
+        assert into_limits(KIN, np.array([0.0, 0, 0, v, 0, 0]), -ref)[0][3] == pytest.approx(-3.0)
 
 
 def test_only_angles_within_one_turn_of_the_limits_are_brought_back() -> None:
     zero = np.zeros(6)
     for far in (1e300, -1e300, 3.0 + 4 * math.pi, math.radians(350) + 2 * math.pi + 1e-3):
         q = np.array([0.0, 0, 0, far, 0, 0])
-        out, moved = into_limits(q, zero)
+        out, moved = into_limits(KIN, q, zero)
         assert moved == () and out[3] == far
-    a = assess(kinematics.forward(zero), zero, [1e300] * 6)  # was passed as the zero pose
+    a = assess(KIN, kinematics.forward(zero), zero, [1e300] * 6)  # was passed as the zero pose
     assert not a.passed and a.q is not None and not a.within_limits
 
 
@@ -238,7 +239,7 @@ def test_call_timed_passes_copies_and_returns_exceptions() -> None:
 
 # ----------------------------------------------------------------------------- the planner's view
 def _checked(fn: Callable[..., Any], spec: str = "test:solve") -> CheckedIk:
-    return CheckedIk(UserIk(spec, fn))
+    return CheckedIk(UserIk(spec, fn), KIN)
 
 
 def test_checked_ik_counts_calls_and_reports_the_pose() -> None:

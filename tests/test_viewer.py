@@ -27,6 +27,7 @@ from kr210_sim.cli import main
 from kr210_sim.jobs import run_job
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import committed
 from kr210_sim.score.report import strip_wall
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, Runner
@@ -139,7 +140,7 @@ def test_rpy_round_trip_and_joint_readout_counts_ik_solutions() -> None:
         Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
         np.testing.assert_allclose(rpy_deg(Rz @ Ry @ Rx), np.degrees([roll, pitch, yaw]), atol=1e-9)
     q = np.array([0.8, -0.2, 0.2, 0.0, 0.0, 0.0])
-    lines = joint_readout(q)
+    lines = joint_readout(committed(), q)
     T = kinematics.forward(q)
     assert f"x {T[0, 3]:6.3f}" in lines[1] and f"z {T[2, 3]:6.3f}" in lines[1]
     n = len(kinematics.inverse(T))
@@ -201,7 +202,7 @@ def _joint_mode() -> None:
     settings = ViewerSettings(port=free_port(), joints=True, quality="fast")
     viewer = LiveViewer(cell.model, settings, limits)
     try:
-        pose = JointPose(viewer, cell, [0.8, -0.2, 0.2, 0.0, 0.0, 0.0])
+        pose = JointPose(viewer, cell, committed(), [0.8, -0.2, 0.2, 0.0, 0.0, 0.0])
         q = np.array([0.3, 0.25, -0.4, 1.0, -0.6, 2.0])
         viewer.panel.set_joints(q)  # what moving the sliders sends
         deadline = time.monotonic() + 10.0
@@ -211,7 +212,7 @@ def _joint_mode() -> None:
         np.testing.assert_allclose(cell.q, q)
         T = kinematics.forward(q)
         assert np.linalg.norm(cell.gripper_pose()[:3, 3] - T[:3, 3]) < 1e-3
-        assert pose.lines == joint_readout(q, cell.gripper_pose())
+        assert pose.lines == joint_readout(committed(), q, cell.gripper_pose())
         assert pose.lines[-1] == "MuJoCo's gripper_link is 0.00 mm from it"
 
         # --quality fast: the viewer draws without shadows, reflections, haze, post-processing

@@ -33,7 +33,6 @@ import numpy.typing as npt
 from kr210_sim.envs.pick_place import MAX_SPEED, MAX_YAW_RATE, POLICY_DT, PickPlaceEnv
 from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.planner import Planner
-from kr210_sim.robot import kinematics
 from kr210_sim.sim.cell import JointTrajectory, hold
 
 log = logging.getLogger(__name__)
@@ -155,7 +154,7 @@ class ScriptedExpert:
         e = self.env
 
         def need(t: float) -> tuple[float, FloatArray]:
-            T = kinematics.forward(self._q_at(t))
+            T = self.planner.kinematics.forward(self._q_at(t))
             a = np.append(
                 (T[:3, 3] - e.p_cmd) / (MAX_SPEED * POLICY_DT),
                 _wrap(math.atan2(T[1, 0], T[0, 0]) - e.yaw_cmd) / (MAX_YAW_RATE * POLICY_DT),

@@ -57,8 +57,8 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.planner import gripper_pose
-from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.scoring import REST_WINDOW, at_rest_in_bin, is_still
 from kr210_sim.sim.cell import Cell, hold
 from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, TargetSample, sample_target
@@ -160,6 +160,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.camera, self.width, self.height = camera, width, height
         self._renderer: mujoco.Renderer | None = None
         self.robot = load_robot()
+        self.kinematics = Kinematics(self.robot)
         self.motion = MotionConfig()
         self.cell = Cell(self.model)
         #: The cell as the compiled model holds it (slots, bin, drop spots): what ``run`` uses.
@@ -240,7 +241,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         pool.spawn(self.target.position, self.target.yaw, self.target.spec)
         self.cell.track(hold(self.ready_q, SPAWN_SETTLE))
         self.q_cmd = self.ready_q.copy()
-        T = kinematics.forward(self.q_cmd)
+        T = self.kinematics.forward(self.q_cmd)
         self.p_cmd, self.yaw_cmd = T[:3, 3].copy(), _yaw(T[:3, :3])
         self.grip_cmd = -1.0
         self.steps, self._still, self._success = 0, 0, False
@@ -367,14 +368,14 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         p = self.p_cmd + a[:3] * MAX_SPEED * POLICY_DT
         yaw = self.yaw_cmd + a[3] * MAX_YAW_RATE * POLICY_DT
         try:
-            q = kinematics.nearest(gripper_pose(p, yaw), self.q_cmd)
+            q = self.kinematics.nearest(gripper_pose(p, yaw), self.q_cmd)
         except UnreachablePoseError:
             return self.q_cmd.copy()  # out of reach: hold the last command
         dq = q - self.q_cmd
         over = float(np.max(np.abs(dq) / (self.qd_max * POLICY_DT)))
         if over > 1.0:  # faster than a joint may move: go as far as the limits allow
             q = self.q_cmd + dq / over
-            T = kinematics.forward(q)
+            T = self.kinematics.forward(q)
             p, yaw = T[:3, 3].copy(), _yaw(T[:3, :3])
         self.p_cmd, self.yaw_cmd = p, float(yaw)
         return q

@@ -15,7 +15,7 @@ For the non-cell groups ``q_ref`` is the joint state that generated the pose, so
 picks the solution nearest ``q_ref`` moves no joint at all. Each answer is judged by
 :func:`kr210_sim.robot.ik_guard.assess` (our forward kinematics); a case passes when the position
 error is <= 1 mm, the orientation error <= 1 mrad and q is inside the limits. An answer that is
-not the solution nearest ``q_ref`` (ours, :func:`kinematics.nearest`) by more than 0.1 rad in
+not the solution nearest ``q_ref`` (ours, :meth:`Kinematics.nearest`) by more than 0.1 rad in
 some joint is flagged with the kind of branch change (a wrist flip, a 2 pi jump, another arm
 branch), not failed: ``run`` fails such jumps only between neighbouring straight-line samples.
 """
@@ -33,8 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, UnreachablePoseError
-from kr210_sim.robot import kinematics
-from kr210_sim.robot.description import ARM_JOINTS
+from kr210_sim.robot.description import ARM_JOINTS, RobotDescription, load_robot
 from kr210_sim.robot.ik_guard import (
     MAX_LINE_STEP,
     ORIENTATION_TOL,
@@ -44,6 +43,7 @@ from kr210_sim.robot.ik_guard import (
     branch_change,
     call_timed,
 )
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.util.progress import ProgressLine, bar
 
@@ -78,18 +78,17 @@ class Case:
     q_ref: FloatArray
 
 
-def cell_cases() -> list[Case]:
+def cell_cases(kin: Kinematics) -> list[Case]:
     """Standoff, grasp, lift and retreat poses of every slot and the drop pose of every drop
-    spot of the published cell, as the planner computes them."""
+    spot of the published cell, as the planner of ``kin``'s robot computes them."""
     from kr210_sim.cell.layout import CellLayout
     from kr210_sim.cell.load import load_model
     from kr210_sim.plan.planner import Planner
-    from kr210_sim.robot.description import load_robot
     from kr210_sim.sim.runner import RunConfig, sample_target
 
     config = RunConfig()
     layout = CellLayout.from_model(load_model())
-    planner = Planner(load_robot(), config.motion)
+    planner = Planner(kin.robot, config.motion)
     rng = np.random.default_rng(0)  # unused: the nominal target draws nothing
     cases: list[Case] = []
     for slot in range(1, layout.n_slots + 1):
@@ -98,27 +97,27 @@ def cell_cases() -> list[Case]:
         q_ref = planner.ready_q
         for what, T in zip(("standoff", "grasp", "lift", "retreat"), poses, strict=True):
             cases.append(Case("cell", f"slot {slot} {what}", T, q_ref.copy()))
-            q_ref = kinematics.nearest(T, q_ref)
+            q_ref = kin.nearest(T, q_ref)
     for i, drop in enumerate(layout.drop_spots, start=1):
         T = planner.drop_pose(drop, layout.target.radius)
         cases.append(Case("cell", f"drop spot {i}", T, planner.ready_q.copy()))
     return cases
 
 
-def _from_q(group: str, name: str, q: npt.ArrayLike) -> Case:
+def _from_q(kin: Kinematics, group: str, name: str, q: npt.ArrayLike) -> Case:
     qa = np.asarray(q, dtype=np.float64)
-    return Case(group, name, kinematics.forward(qa), qa.copy())
+    return Case(group, name, kin.forward(qa), qa.copy())
 
 
-def fixed_cases() -> list[Case]:
-    """The fixed set: cell, zero, singular and limits groups."""
-    g = kinematics.geometry()
-    cases = cell_cases()
-    cases.append(_from_q("zero", "q = 0", np.zeros(6)))
+def fixed_cases(kin: Kinematics) -> list[Case]:
+    """The fixed set for ``kin``'s robot: cell, zero, singular and limits groups."""
+    g = kin.geometry
+    cases = cell_cases(kin)
+    cases.append(_from_q(kin, "zero", "q = 0", np.zeros(6)))
     for q5 in SINGULAR_Q5:
         q = np.array(BASE_Q)
         q[4] = q5
-        cases.append(_from_q("singular", f"q5 = {q5:g}", q))
+        cases.append(_from_q(kin, "singular", f"q5 = {q5:g}", q))
     for j in range(6):
         for side, value in (
             ("lower", g.lower[j] + LIMIT_MARGIN),
@@ -126,27 +125,27 @@ def fixed_cases() -> list[Case]:
         ):
             q = np.array(BASE_Q)
             q[j] = value
-            cases.append(_from_q("limits", f"{ARM_JOINTS[j]} {side}", q))
+            cases.append(_from_q(kin, "limits", f"{ARM_JOINTS[j]} {side}", q))
     return cases
 
 
-def random_cases(n: int, seed: int) -> list[Case]:
-    """``n`` poses from joint states drawn uniformly inside the limits (seeded)."""
-    g = kinematics.geometry()
+def random_cases(kin: Kinematics, n: int, seed: int) -> list[Case]:
+    """``n`` poses from joint states drawn uniformly inside ``kin``'s limits (seeded)."""
+    g = kin.geometry
     q = np.random.default_rng(seed).uniform(g.lower, g.upper, size=(n, 6))
-    return [_from_q("random", f"random {i + 1}", q[i]) for i in range(n)]
+    return [_from_q(kin, "random", f"random {i + 1}", q[i]) for i in range(n)]
 
 
 def _num(x: float) -> float | None:
     return None if math.isnan(x) else float(x)
 
 
-def case_record(case: Case, a: Assessment) -> dict[str, Any]:
-    """The report's record of one case."""
+def case_record(kin: Kinematics, case: Case, a: Assessment) -> dict[str, Any]:
+    """The report's record of one case (its branch compared with ``kin``'s nearest answer)."""
     branch = ""
     if a.q is not None:  # compare with the answer nearest q_ref (ours)
         try:
-            branch = branch_change(a.q, kinematics.nearest(case.T, case.q_ref))
+            branch = branch_change(a.q, kin.nearest(case.T, case.q_ref))
         except UnreachablePoseError:  # pragma: no cover - every case is reachable
             branch = ""
     return {
@@ -223,15 +222,17 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def check(ik: UserIk, cases: list[Case], progress: TextIO | None = None) -> list[dict[str, Any]]:
-    """Call ``ik`` on every case and judge each answer; one record per case."""
+def check(
+    kin: Kinematics, ik: UserIk, cases: list[Case], progress: TextIO | None = None
+) -> list[dict[str, Any]]:
+    """Call ``ik`` on every case and judge each answer with ``kin``; one record per case."""
     line = ProgressLine(progress or sys.stderr)
     line.last = line.start  # the first line only after an interval: quick checks stay quiet
     shown = False
     records = []
     for i, case in enumerate(cases, start=1):
         raw, dt = call_timed(ik.function, case.T, case.q_ref)
-        records.append(case_record(case, assess(case.T, case.q_ref, raw, dt)))
+        records.append(case_record(kin, case, assess(kin, case.T, case.q_ref, raw, dt)))
         if line.due() or (shown and i == len(cases)):
             shown = True
             line.show(f"ik-check {bar(i / len(cases))} {i}/{len(cases)} cases")
@@ -404,8 +405,12 @@ def run_check(
     report_path: Path | None = None,
     plots_dir: Path | None = None,
     progress: TextIO | None = None,
+    robot: RobotDescription | None = None,
 ) -> CheckResult:
     """Check ``ik`` on the fixed cases and ``n_random`` random ones; write report and plots.
+
+    The cases are poses of ``robot`` (default: the committed URDF), and its kinematics judge
+    the answers.
 
     Raises:
         ConfigError: When the report or plot paths cannot be written (checked first).
@@ -417,8 +422,9 @@ def run_check(
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
         raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
     wall0 = time.perf_counter()
-    cases = fixed_cases() + random_cases(n_random, seed)
-    records = check(ik, cases, progress)
+    kin = Kinematics(robot if robot is not None else load_robot())
+    cases = fixed_cases(kin) + random_cases(kin, n_random, seed)
+    records = check(kin, ik, cases, progress)
     report = build_report(ik.spec, n_random, seed, records, time.perf_counter() - wall0)
     if report_path is not None:
         write_json_atomic(report_path, report)

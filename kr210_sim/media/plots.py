@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from kr210_sim.robot.description import ARM_JOINTS, RobotDescription
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.metrics import gripper_tracking_error_mm
 from kr210_sim.sim.cell import Recording
 from kr210_sim.sim.runner import CycleResult
@@ -51,6 +52,8 @@ def write_plots(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    kin = Kinematics(robot)
+
     out = check_folder(out_dir, PLOT_NAMES)
     arrays = [rec.arrays() for rec in recordings]
     paths: list[Path] = []
@@ -83,7 +86,7 @@ def write_plots(
     for r, a in zip(results, arrays, strict=True):
         if not len(a["t"]):
             continue
-        err = gripper_tracking_error_mm(a["q"], a["q_des"])
+        err = gripper_tracking_error_mm(kin, a["q"], a["q_des"])
         ax.plot(a["t"] - a["t"][0], err, lw=0.8, label=f"cycle {r.index} (slot {r.slot})")
     ax.set_xlabel("time in cycle [s]")
     ax.set_ylabel("gripper tracking error [mm]")

@@ -21,6 +21,7 @@ from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, Unreacha
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
+from kr210_sim.robot.kinematics import Kinematics
 
 import mujoco  # isort: skip
 
@@ -112,8 +113,9 @@ def check_cell(
 ) -> CellCheck:
     """Plan every slot and drop spot of the cell ``model`` simulates (see the module doc)."""
     layout = CellLayout.from_model(model)
+    robot = robot or load_robot()
     planner = Planner(
-        robot or load_robot(), motion or MotionConfig(), None, CollisionChecker(model)
+        robot, motion or MotionConfig(), None, CollisionChecker(model, Kinematics(robot))
     )
     t = layout.target
     ready = planner.ready_q

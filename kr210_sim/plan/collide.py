@@ -19,7 +19,7 @@ import numpy.typing as npt
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.spec import TargetSpec
 from kr210_sim.plan.trajectory import Trajectory
-from kr210_sim.robot import kinematics
+from kr210_sim.robot.kinematics import Kinematics
 
 import mujoco  # isort: skip
 
@@ -56,14 +56,15 @@ class Hit:
         return f"{self.robot} against {self.cell} at q {np.round(self.q, 3).tolist()}"
 
 
-def check_samples(traj: Trajectory) -> FloatArray:
-    """Joint states along ``traj`` at most :data:`SAMPLE_TRAVEL` of gripper travel and
-    :data:`SAMPLE_ANGLE` per joint apart (both ends included), shape (n, 6)."""
+def check_samples(traj: Trajectory, kin: Kinematics) -> FloatArray:
+    """Joint states along ``traj`` at most :data:`SAMPLE_TRAVEL` of gripper travel (by ``kin``'s
+    forward kinematics) and :data:`SAMPLE_ANGLE` per joint apart (both ends included), shape
+    (n, 6)."""
     n = max(2, math.ceil(traj.duration / _DENSE_DT) + 1)
     while True:  # dense enough that every dense step is below 0.9 of a unit
         ts = np.linspace(0.0, traj.duration, n)
         q = traj.sample_many(ts)[0]
-        p = kinematics.forward(q)[:, :3, 3]
+        p = kin.forward(q)[:, :3, 3]
         step = np.maximum(
             np.abs(np.diff(q, axis=0)).max(axis=1) / SAMPLE_ANGLE,
             np.linalg.norm(np.diff(p, axis=0), axis=1) / SAMPLE_TRAVEL,
@@ -90,9 +91,11 @@ class CollisionChecker:
     Args:
         model: The cell model (copied: the copy's floor is made to touch the hull colliders,
             sleeping is off, cell geoms get a margin of :data:`CLEARANCE`).
+        kin: The kinematics of the arm in ``model`` (places a held target at the gripper).
     """
 
-    def __init__(self, model: mujoco.MjModel) -> None:
+    def __init__(self, model: mujoco.MjModel, kin: Kinematics) -> None:
+        self.kin = kin
         m = copy.copy(model)
         m.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         self.model = m
@@ -166,7 +169,7 @@ class CollisionChecker:
         a = self._held_qpos
         held_pose = None
         if off is not None:  # upright at the offset, turned with the gripper's heading
-            T = kinematics.forward(np.asarray(qs))
+            T = self.kin.forward(np.asarray(qs))
             yaw = np.arctan2(T[:, 1, 0], T[:, 0, 0])
             held_pose = np.column_stack(
                 [

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -40,9 +41,9 @@ from kr210_sim.plan.trajectory import (
     plan_cartesian_line,
     plan_ptp,
 )
-from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import RobotDescription
 from kr210_sim.robot.ik_guard import CheckedIk
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 
 if TYPE_CHECKING:
@@ -137,9 +138,10 @@ class Planner:
     """Plans the moves of a cycle with closed-form IK and ruckig.
 
     Args:
-        robot: The robot description.
+        robot: The robot description: every pose is solved and every path checked with its
+            kinematics (:attr:`kinematics`).
         motion: Motion settings.
-        ik: A user's IK function to plan with instead of :func:`kinematics.nearest`; every
+        ik: A user's IK function to plan with instead of :meth:`Kinematics.nearest`; every
             answer is checked (:class:`~kr210_sim.robot.ik_guard.CheckedIk`) and a bad one raises
             :class:`~kr210_sim.errors.IkFailedError`.
         checker: Checks every move against the cell (:mod:`kr210_sim.plan.collide`); a joint-space
@@ -156,10 +158,12 @@ class Planner:
         checker: CollisionChecker | None = None,
     ) -> None:
         self.robot = robot
+        #: The kinematics of ``robot``.
+        self.kinematics = Kinematics(robot)
         self.motion = motion
         self.limits = JointLimits.from_robot(robot, motion)
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
-        self.user_ik = CheckedIk(ik) if ik is not None else None
+        self.user_ik = CheckedIk(ik, self.kinematics) if ik is not None else None
         self.checker = checker
         #: Moves planned through via points so far.
         self.detours = 0
@@ -176,7 +180,8 @@ class Planner:
         from kr210_sim.plan.collide import check_samples
 
         offset = None if held is None else self.held_offset(held.radius)
-        return self.checker.first_hit(check_samples(move.trajectory), held, offset)
+        samples = check_samples(move.trajectory, self.kinematics)
+        return self.checker.first_hit(samples, held, offset)
 
     def checked(self, move: Move, held: TargetSpec | None = None) -> Move:
         """``move`` if it keeps clear of the cell, else a detour (joint-space moves only).
@@ -210,7 +215,8 @@ class Planner:
     def _via_candidates(self, q0: FloatArray, q1: FloatArray) -> list[list[FloatArray]]:
         """Via points to try, in order: pull in towards the base (at the start's and the goal's
         heading), rise over, and pull in higher; every one a level, radial gripper pose."""
-        p0, p1 = kinematics.forward(q0)[:3, 3], kinematics.forward(q1)[:3, 3]
+        forward = self.kinematics.forward
+        p0, p1 = forward(q0)[:3, 3], forward(q1)[:3, 3]
         a0, a1 = math.atan2(p0[1], p0[0]), math.atan2(p1[1], p1[0])
         r0, r1 = math.hypot(p0[0], p0[1]), math.hypot(p1[0], p1[1])
         z = max(p0[2], p1[2])
@@ -226,7 +232,7 @@ class Planner:
             try:
                 for a, r, zz in plan:
                     T = gripper_pose((r * math.cos(a), r * math.sin(a), zz), a)
-                    q_ref = kinematics.nearest(T, q_ref)
+                    q_ref = self.kinematics.nearest(T, q_ref)
                     vias.append(q_ref)
             except UnreachablePoseError:
                 continue
@@ -239,8 +245,10 @@ class Planner:
 
     def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray) -> Move:
         """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
-        T_start = kinematics.forward(q_start)
-        ik = kinematics.nearest if self.user_ik is None else self.user_ik.line_ik(f"{phase} line")
+        T_start = self.kinematics.forward(q_start)
+        ik: Callable[[FloatArray, FloatArray], FloatArray] = self.kinematics.nearest
+        if self.user_ik is not None:
+            ik = self.user_ik.line_ik(f"{phase} line")
         traj = plan_cartesian_line(
             T_start,
             T_goal,
@@ -257,7 +265,7 @@ class Planner:
         if self.user_ik is not None:
             return self.user_ik.solve(T, q_ref, f"{what} pose")
         try:
-            return kinematics.nearest(T, q_ref)
+            return self.kinematics.nearest(T, q_ref)
         except UnreachablePoseError as exc:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
 

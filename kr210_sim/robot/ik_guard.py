@@ -26,9 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkFailedError, UnreachablePoseError
-from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import ARM_JOINTS
-from kr210_sim.robot.kinematics import LIMIT_SLACK, TWO_PI
+from kr210_sim.robot.kinematics import LIMIT_SLACK, TWO_PI, Kinematics
 from kr210_sim.robot.user_ik import UserIk, describe_exception
 
 FloatArray = npt.NDArray[np.float64]
@@ -136,14 +135,16 @@ def _exception_text(exc: BaseException) -> str:
         return _type_name(exc)
 
 
-def into_limits(q: FloatArray, q_ref: FloatArray) -> tuple[FloatArray, tuple[int, ...]]:
-    """Move each angle outside its limits, but within one turn of them, to its 2 pi twin
-    inside them (nearest ``q_ref``).
+def into_limits(
+    kin: Kinematics, q: FloatArray, q_ref: FloatArray
+) -> tuple[FloatArray, tuple[int, ...]]:
+    """Move each angle outside the limits of ``kin``'s robot, but within one turn of them, to its
+    2 pi twin inside them (nearest ``q_ref``).
 
     Angles already inside the limits are kept, and so are angles more than one turn outside
     (``1e300``: its "twin" would be rounding noise). Returns the new angles and the joints moved.
     """
-    g = kinematics.geometry()
+    g = kin.geometry
     out = q.copy()
     moved: list[int] = []
     for j in range(6):
@@ -172,10 +173,13 @@ def _rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
     return 2.0 * math.asin(min(1.0, s))
 
 
-def assess(T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0) -> Assessment:
+def assess(
+    kin: Kinematics, T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0
+) -> Assessment:
     """Judge one answer ``raw`` of a user's IK for pose ``T`` from ``q_ref`` (see module doc).
 
     Args:
+        kin: The kinematics of the robot the answer is for (its limits and forward kinematics).
         T: Requested gripper_link pose (4x4).
         q_ref: Joint state passed to the function [rad].
         raw: What the function returned, or the exception it raised.
@@ -194,12 +198,12 @@ def assess(T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0) -
     q, why = _as_angles(raw)
     if q is None:
         return unusable(why)
-    q, wrapped = into_limits(q, q_ref)
-    g = kinematics.geometry()
+    q, wrapped = into_limits(kin, q, q_ref)
+    g = kin.geometry
     outside = [
         j for j in range(6) if not (g.lower[j] - LIMIT_SLACK <= q[j] <= g.upper[j] + LIMIT_SLACK)
     ]
-    Tq = kinematics.forward(q)
+    Tq = kin.forward(q)
     pos_err = float(np.linalg.norm(Tq[:3, 3] - T[:3, 3]))
     ori_err = _rotation_angle(Tq[:3, :3], T[:3, :3])
     wc_err = float(np.linalg.norm((Tq[:3, 3] - g.dg * Tq[:3, 0]) - (T[:3, 3] - g.dg * T[:3, 0])))
@@ -287,10 +291,12 @@ class CheckedIk:
 
     Args:
         user: The loaded function.
+        kin: The kinematics of the robot it solves for (judges its answers).
     """
 
-    def __init__(self, user: UserIk) -> None:
+    def __init__(self, user: UserIk, kin: Kinematics) -> None:
         self.user = user
+        self.kin = kin
         self.stats = CallStats()
 
     def solve(
@@ -313,11 +319,11 @@ class CheckedIk:
         """
         raw, dt = call_timed(self.user.function, T, q_ref)
         self.stats.add(dt)
-        a = assess(T, q_ref, raw, dt)
+        a = assess(self.kin, T, q_ref, raw, dt)
         where = f"{what} {_pose_text(T)}"
         if a.returned_none:
             try:
-                q_ours = kinematics.nearest(T, q_ref)
+                q_ours = self.kin.nearest(T, q_ref)
             except UnreachablePoseError as exc:
                 raise UnreachablePoseError(f"{where}: {exc}") from None
             raise IkFailedError(

@@ -1,8 +1,9 @@
 """Closed-form forward and inverse kinematics of the KR210 (numpy only, no MuJoCo).
 
-Geometry is read from the URDF joint origins (:func:`kr210_sim.robot.description.load_robot`),
-never typed
-in twice. In the URDF frames (every joint origin has rpy = 0)::
+A :class:`Kinematics` is built from a robot description and takes its geometry from the
+description's URDF joint origins (:attr:`~kr210_sim.robot.description.RobotDescription.geometry`),
+never typed in twice; :func:`forward`, :func:`inverse` and :func:`nearest` are those of the
+committed URDF. In the URDF frames (every joint origin has rpy = 0)::
 
     T_base_gripper = Tz(d0) Rz(q1) T(a1, 0, h1) Ry(q2) Tz(a2) Ry(q3) T(a3x, 0, a3z) Rx(q4)
                      Tx(d4b) Ry(q5) Tx(d5) Rx(q6) Tx(dg)
@@ -27,130 +28,27 @@ Conventions:
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import UnreachablePoseError
-from kr210_sim.robot.description import ARM_JOINTS, Geometry, load_robot
+from kr210_sim.robot.description import ARM_JOINTS, Geometry, RobotDescription, load_robot
+from kr210_sim.robot.poses import CHUNK, check_pose, check_q, thread_pool
 
 FloatArray = npt.NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
-#: Tolerance of the rotation checks on input poses.
-ORTHO_TOL = 1e-6
 #: |sin q5| below which the wrist counts as straight (singular).
 WRIST_SINGULAR = 1e-9
 #: Slack on the joint limits when checking solutions [rad].
 LIMIT_SLACK = 1e-9
 
 
-def geometry() -> Geometry:
-    """The geometry of the committed URDF."""
-    return load_robot().geometry
-
-
-# --------------------------------------------------------------------------- input checks
-def _check_q(q: npt.ArrayLike) -> FloatArray:
-    arr = np.asarray(q, dtype=np.float64)
-    if arr.shape[-1:] != (6,) or arr.ndim not in (1, 2):
-        raise ValueError(f"q must have shape (6,) or (N, 6), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError("q contains NaN or inf")
-    return arr
-
-
-def _check_pose_scalar(arr: FloatArray) -> None:
-    """:func:`_check_pose` for one (4, 4) pose, in pure Python (a few microseconds)."""
-    (a, b, c, px), (d, e, f, py), (g, h, k, pz), bottom = arr.tolist()
-    if not math.isfinite(a + b + c + d + e + f + g + h + k + px + py + pz + sum(bottom)):
-        raise ValueError("pose contains NaN or inf")
-    if bottom != [0.0, 0.0, 0.0, 1.0]:
-        raise ValueError("pose bottom row must be [0, 0, 0, 1]")
-    err = max(
-        abs(a * a + d * d + g * g - 1.0),
-        abs(b * b + e * e + h * h - 1.0),
-        abs(c * c + f * f + k * k - 1.0),
-        abs(a * b + d * e + g * h),
-        abs(a * c + d * f + g * k),
-        abs(b * c + e * f + h * k),
-    )
-    if err > ORTHO_TOL:
-        raise ValueError(f"pose rotation is not orthonormal (|R^T R - I| = {err:.2e})")
-    if a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0:
-        raise ValueError("pose rotation is a reflection (det R = -1)")
-
-
-def _check_pose(T: npt.ArrayLike) -> FloatArray:
-    arr = np.asarray(T, dtype=np.float64)
-    if arr.shape == (4, 4):
-        _check_pose_scalar(arr)
-        return arr
-    if arr.shape[-2:] != (4, 4) or arr.ndim not in (2, 3):
-        raise ValueError(f"pose must have shape (4, 4) or (N, 4, 4), got {arr.shape}")
-    n = arr.shape[0]
-    if n <= CHUNK:
-        checks = [_check_chunk(arr)]
-    else:  # large batches: checked chunk by chunk on the thread pool, like the solve
-        checks = list(_pool().map(lambda i: _check_chunk(arr[i : i + CHUNK]), range(0, n, CHUNK)))
-    finite, bottom, err, det = (
-        all(c[0] for c in checks),
-        max(c[1] for c in checks),
-        max(c[2] for c in checks),
-        min(c[3] for c in checks),
-    )
-    if not finite:
-        raise ValueError("pose contains NaN or inf")
-    if bottom > 1e-12:
-        raise ValueError("pose bottom row must be [0, 0, 0, 1]")
-    if err > ORTHO_TOL:
-        raise ValueError(f"pose rotation is not orthonormal (|R^T R - I| = {err:.2e})")
-    if det < 0:
-        raise ValueError("pose rotation is a reflection (det R = -1)")
-    return arr
-
-
-def _check_chunk(T: FloatArray) -> tuple[bool, float, float, float]:
-    """(all finite, largest bottom-row deviation, largest |R^T R - I| entry, smallest det R)
-    for poses (n, 4, 4), from elementwise products of contiguous rows (much faster than batched
-    3x3 matmul and det in numpy)."""
-    if not T.shape[0]:
-        return True, 0.0, 0.0, 1.0
-    flat = T.reshape(-1, 16).T.copy()  # (16, n), row k = entry (k // 4, k % 4)
-    finite = bool(np.isfinite(flat).all())
-    if not finite:
-        return False, 0.0, 0.0, 1.0
-    bottom = float(np.abs(flat[12:16] - np.array([[0.0], [0.0], [0.0], [1.0]])).max())
-    r = [[flat[4 * i + j] for j in range(3)] for i in range(3)]
-    err = np.zeros(flat.shape[1])
-    for a in range(3):
-        for b in range(a, 3):
-            d = r[0][a] * r[0][b] + r[1][a] * r[1][b] + r[2][a] * r[2][b] - (a == b)
-            np.maximum(err, np.abs(d), out=err)
-    det = (
-        r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
-        - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
-        + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0])
-    )
-    return True, bottom, float(err.max()), float(det.min())
-
-
 # --------------------------------------------------------------------------- forward
-def forward(q: npt.ArrayLike) -> FloatArray:
-    """Pose of gripper_link in the base_link frame.
-
-    Args:
-        q: Joint positions [rad], shape (6,) or (N, 6).
-
-    Returns:
-        ``T_base_gripper``, shape (4, 4) or (N, 4, 4).
-
-    Raises:
-        ValueError: On a wrong shape, NaN or inf.
-    """
-    qa = _check_q(q)
-    g = geometry()
+def _forward(q: npt.ArrayLike, g: Geometry) -> FloatArray:
+    """:meth:`Kinematics.forward` with the geometry ``g``."""
+    qa = check_q(q)
     if qa.ndim == 1:
         return _forward_scalar(qa.tolist(), g)
     single = False
@@ -239,27 +137,12 @@ def _wrap(a: FloatArray) -> FloatArray:
     return np.where(w <= -math.pi, w + TWO_PI, w)
 
 
-#: Poses per work chunk of the batch path: small enough that the temporaries stay in cache.
-CHUNK = 16384
-_POOL: ThreadPoolExecutor | None = None
-
-
-def _pool() -> ThreadPoolExecutor:
-    global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(
-            max_workers=max(1, min(4, os.cpu_count() or 1)), thread_name_prefix="kr210-ik"
-        )
-    return _POOL
-
-
-def _inverse_batch(T: FloatArray) -> FloatArray:
+def _inverse_batch(T: FloatArray, g: Geometry) -> FloatArray:
     """All 8 branches inside the limits for poses (N, 4, 4) -> (N, 8, 6), NaN elsewhere.
 
     Works in chunks of :data:`CHUNK` poses (cache-sized temporaries), spread over a small thread
     pool for large batches (numpy releases the GIL in its loops).
     """
-    g = geometry()
     n = T.shape[0]
     if n <= CHUNK:
         return _fit_limits(_branches(T, g), g)
@@ -268,7 +151,7 @@ def _inverse_batch(T: FloatArray) -> FloatArray:
     def work(i: int) -> None:
         out[i : i + CHUNK] = _fit_limits(_branches(T[i : i + CHUNK], g), g)
 
-    list(_pool().map(work, range(0, n, CHUNK)))
+    list(thread_pool().map(work, range(0, n, CHUNK)))
     return out
 
 
@@ -361,24 +244,12 @@ def _fit_limits(sol: FloatArray, g: Geometry) -> FloatArray:
     return sol
 
 
-def inverse(T: npt.ArrayLike) -> FloatArray:
-    """Every inverse-kinematics solution inside the joint limits.
-
-    Args:
-        T: gripper_link pose(s) in the base frame, shape (4, 4) or (N, 4, 4).
-
-    Returns:
-        For one pose: (k, 6) [rad], k = 0 ... 8 distinct solutions in a fixed branch order
-        (shoulder front/back x elbow x wrist flip); k = 0 when the pose is unreachable.
-        For N poses: (N, 8, 6) with NaN rows for branches that do not exist or break a limit.
-
-    Raises:
-        ValueError: On a wrong shape, NaN/inf, or a non-orthonormal rotation.
-    """
-    Ta = _check_pose(T)
+def _inverse(T: npt.ArrayLike, g: Geometry) -> FloatArray:
+    """:meth:`Kinematics.inverse` with the geometry ``g``."""
+    Ta = check_pose(T)
     if Ta.ndim == 2:
-        return np.array(_solutions_scalar(Ta, geometry()), dtype=np.float64).reshape(-1, 6)
-    return _inverse_batch(Ta)
+        return np.array(_solutions_scalar(Ta, g), dtype=np.float64).reshape(-1, 6)
+    return _inverse_batch(Ta, g)
 
 
 # --------------------------------------------------------------------------- scalar path
@@ -467,26 +338,9 @@ def _best_twin(value: float, ref: float, lo: float, hi: float) -> float:
     return best
 
 
-def nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
-    """The solution for ``T`` closest to ``q_ref`` (no full-turn jumps).
-
-    Among all branches and all 2 pi twins of joints 1, 4 and 6 inside the limits, returns the one
-    that minimises sum(((q - q_ref) / v_max)^2), i.e. roughly the fastest to reach. At the wrist
-    singularity, q4 stays at ``q_ref[3]``.
-
-    Args:
-        T: gripper_link pose in the base frame, shape (4, 4).
-        q_ref: Reference joint state [rad], shape (6,).
-
-    Returns:
-        Joint positions [rad], shape (6,).
-
-    Raises:
-        ValueError: On invalid input.
-        UnreachablePoseError: When no solution lies inside the limits; the message says by how
-            much the pose is out of reach, or which joint limit excludes it.
-    """
-    Ta = _check_pose(T)
+def _nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike, g: Geometry) -> FloatArray:
+    """:meth:`Kinematics.nearest` with the geometry ``g``."""
+    Ta = check_pose(T)
     if Ta.ndim != 2:
         raise ValueError(f"nearest takes one pose (4, 4), got {Ta.shape}")
     ref = np.asarray(q_ref, dtype=np.float64)
@@ -495,7 +349,6 @@ def nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
     ref_l = ref.tolist()
     if not all(math.isfinite(v) for v in ref_l):
         raise ValueError("q_ref contains NaN or inf")
-    g = geometry()
     lo, hi = g.lower_list, g.upper_list
     inv_v2 = g.inv_v2_list
     best: list[float] | None = None
@@ -519,13 +372,12 @@ def nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
         if cost < best_cost:
             best, best_cost = cand, cost
     if best is None:
-        raise UnreachablePoseError(_why_unreachable(Ta))
+        raise UnreachablePoseError(_why_unreachable(Ta, g))
     return np.array(best, dtype=np.float64)
 
 
-def _why_unreachable(T: FloatArray) -> str:
+def _why_unreachable(T: FloatArray, g: Geometry) -> str:
     """A sentence on why a pose has no solution inside the limits."""
-    g = geometry()
     R = T[:3, :3]
     w = T[:3, 3] - g.dg * R[:, 0]
     rho = math.hypot(w[0], w[1])
@@ -554,3 +406,101 @@ def _why_unreachable(T: FloatArray) -> str:
         f"{ARM_JOINTS[jnt]} by >= {math.degrees(e):.1f} deg" for jnt, e in sorted(excess.items())
     ]
     return "every solution breaks a joint limit: " + ", ".join(parts)
+
+
+# --------------------------------------------------------------------------- the API
+class Kinematics:
+    """The closed-form kinematics of one robot description.
+
+    Built from the description a caller passes (as mink's ``Configuration`` carries its model):
+    a description with other joint origins or limits has its own forward and inverse kinematics.
+    The package's planner, runner, scoring and checks each use the :class:`Kinematics` of the
+    robot they were given.
+
+    Args:
+        robot: The robot description (its :attr:`~RobotDescription.geometry` is used).
+
+    Attributes:
+        robot: The description.
+        geometry: Its closed-form constants.
+    """
+
+    __slots__ = ("geometry", "robot")
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self.robot = robot
+        self.geometry = robot.geometry
+
+    def forward(self, q: npt.ArrayLike) -> FloatArray:
+        """Pose of gripper_link in the base_link frame.
+
+        Args:
+            q: Joint positions [rad], shape (6,) or (N, 6).
+
+        Returns:
+            ``T_base_gripper``, shape (4, 4) or (N, 4, 4).
+
+        Raises:
+            ValueError: On a wrong shape, NaN or inf.
+        """
+        return _forward(q, self.geometry)
+
+    def inverse(self, T: npt.ArrayLike) -> FloatArray:
+        """Every inverse-kinematics solution inside the joint limits.
+
+        Args:
+            T: gripper_link pose(s) in the base frame, shape (4, 4) or (N, 4, 4).
+
+        Returns:
+            For one pose: (k, 6) [rad], k = 0 ... 8 distinct solutions in a fixed branch order
+            (shoulder front/back x elbow x wrist flip); k = 0 when the pose is unreachable.
+            For N poses: (N, 8, 6) with NaN rows for branches that do not exist or break a limit.
+
+        Raises:
+            ValueError: On a wrong shape, NaN/inf, or a non-orthonormal rotation.
+        """
+        return _inverse(T, self.geometry)
+
+    def nearest(self, T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
+        """The solution for ``T`` closest to ``q_ref`` (no full-turn jumps).
+
+        Among all branches and all 2 pi twins of joints 1, 4 and 6 inside the limits, returns
+        the one that minimises sum(((q - q_ref) / v_max)^2), i.e. roughly the fastest to reach.
+        At the wrist singularity, q4 stays at ``q_ref[3]``.
+
+        Args:
+            T: gripper_link pose in the base frame, shape (4, 4).
+            q_ref: Reference joint state [rad], shape (6,).
+
+        Returns:
+            Joint positions [rad], shape (6,).
+
+        Raises:
+            ValueError: On invalid input.
+            UnreachablePoseError: When no solution lies inside the limits; the message says by
+                how much the pose is out of reach, or which joint limit excludes it.
+        """
+        return _nearest(T, q_ref, self.geometry)
+
+
+@lru_cache(maxsize=1)
+def committed() -> Kinematics:
+    """The kinematics of the committed URDF (for scripts, tests and the ``--ik`` SPEC below)."""
+    return Kinematics(load_robot())
+
+
+def forward(q: npt.ArrayLike) -> FloatArray:
+    """:meth:`Kinematics.forward` of the committed KR210."""
+    return _forward(q, committed().geometry)
+
+
+def inverse(T: npt.ArrayLike) -> FloatArray:
+    """:meth:`Kinematics.inverse` of the committed KR210."""
+    return _inverse(T, committed().geometry)
+
+
+def nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike) -> FloatArray:
+    """:meth:`Kinematics.nearest` of the committed KR210: the user-IK contract
+    ``solve(T, q_ref)``, so ``--ik kr210_sim.robot.kinematics:nearest`` plans with our closed
+    form through the user-IK path."""
+    return _nearest(T, q_ref, committed().geometry)

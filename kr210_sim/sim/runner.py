@@ -28,8 +28,8 @@ from kr210_sim.errors import (
 )
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.planner import Move, Planner
-from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import RobotDescription, load_robot
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.metrics import gripper_tracking_error_mm
 from kr210_sim.score.scoring import (
@@ -240,7 +240,8 @@ class Runner:
                 f"{self.layout.name!r}, got {config.slot}"
             )
         self.cell = Cell(self.model)
-        self.planner = Planner(self.robot, config.motion, ik, CollisionChecker(self.model))
+        checker = CollisionChecker(self.model, Kinematics(self.robot))
+        self.planner = Planner(self.robot, config.motion, ik, checker)
         self.planner.check_ready()
         self.rng = np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
@@ -388,7 +389,9 @@ class Runner:
                     cell.open_gripper()
                     self._hold(0.3, rec, "grasp", phases)
                     back = self.planner.lin(
-                        "retreat", self.q_cmd, kinematics.forward(plan.approach_ptp.q_end)
+                        "retreat",
+                        self.q_cmd,
+                        self.planner.kinematics.forward(plan.approach_ptp.q_end),
                     )
                     self._track(back, rec, phases)
                     tilt = self.target_tilt_deg(k)
@@ -519,7 +522,9 @@ class Runner:
     ) -> CycleResult:
         arr = rec.arrays()
         track_deg = np.degrees(np.abs(arr["q"] - arr["q_des"]).max(axis=0))
-        grip_err = gripper_tracking_error_mm(arr["q"], arr["q_des"]).max(initial=0.0)
+        grip_err = gripper_tracking_error_mm(self.planner.kinematics, arr["q"], arr["q_des"]).max(
+            initial=0.0
+        )
         creep = 0.0
         if grip_ref is not None and i_grip >= 0:
             end = i_release if i_release > i_grip else len(arr["t"])

@@ -12,8 +12,9 @@ two things that never touch the physics:
   before every phase (approach, grasp, lift, retreat, carry, release, return) until Next.
 
 Joint mode (:func:`run_joints`) has no task: the arm takes the pose of the panel's six sliders
-and the panel shows the gripper pose from :func:`kr210_sim.robot.kinematics.forward` and how many
-inverse-kinematics solutions that pose has.
+and the panel shows the gripper pose from the robot's forward kinematics
+(:class:`~kr210_sim.robot.kinematics.Kinematics`) and how many inverse-kinematics solutions that
+pose has.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.errors import ConfigError
 from kr210_sim.jobs import check_outputs, run_cycles, runner_report
 from kr210_sim.media.video import overlay_lines
-from kr210_sim.robot import kinematics
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner
@@ -344,10 +345,13 @@ def rpy_deg(R: npt.ArrayLike) -> tuple[float, float, float]:
     return math.degrees(roll), math.degrees(pitch), math.degrees(yaw)
 
 
-def joint_readout(q: npt.ArrayLike, T_measured: npt.ArrayLike | None = None) -> list[str]:
+def joint_readout(
+    kin: Kinematics, q: npt.ArrayLike, T_measured: npt.ArrayLike | None = None
+) -> list[str]:
     """The joint-mode panel text for joint positions ``q`` [rad].
 
     Args:
+        kin: The kinematics of the arm shown.
         q: The six joint positions [rad].
         T_measured: gripper_link's pose in MuJoCo (4x4), shown as a cross-check, or None.
 
@@ -356,8 +360,8 @@ def joint_readout(q: npt.ArrayLike, T_measured: npt.ArrayLike | None = None) -> 
         kinematics, and the number of inverse-kinematics solutions inside the limits.
     """
     qa = np.asarray(q, dtype=np.float64)
-    T = kinematics.forward(qa)
-    n = int(np.sum(~np.isnan(kinematics.inverse(T)).any(axis=-1)))
+    T = kin.forward(qa)
+    n = int(np.sum(~np.isnan(kin.inverse(T)).any(axis=-1)))
     roll, pitch, yaw = rpy_deg(T[:3, :3])
     x, y, z = T[:3, 3]
     lines = [
@@ -378,14 +382,15 @@ class JointPose:
     Args:
         viewer: The open viewer (its inbox holds the latest slider values).
         cell: The cell; only the arm's joint positions are set (kinematically, no task).
+        kin: The kinematics of the arm (the panel's pose and IK solution count).
         q0: The starting pose [rad].
     """
 
-    def __init__(self, viewer: LiveViewer, cell: Cell, q0: npt.ArrayLike) -> None:
-        self.viewer, self.cell = viewer, cell
+    def __init__(self, viewer: LiveViewer, cell: Cell, kin: Kinematics, q0: npt.ArrayLike) -> None:
+        self.viewer, self.cell, self.kin = viewer, cell, kin
         self.q = np.asarray(q0, dtype=np.float64).copy()
         self.cell.reset(self.q)
-        self.lines = joint_readout(self.q, self.cell.gripper_pose())
+        self.lines = joint_readout(kin, self.q, self.cell.gripper_pose())
 
     def tick(self) -> None:
         """Take the sliders' latest values (if new) and show the pose."""
@@ -393,7 +398,7 @@ class JointPose:
         if q is not None and not np.array_equal(q, self.q):
             self.q = np.asarray(q, dtype=np.float64)
             self.cell.reset(self.q)
-            self.lines = joint_readout(self.q, self.cell.gripper_pose())
+            self.lines = joint_readout(self.kin, self.q, self.cell.gripper_pose())
         self.viewer.publish(self.cell.data, self.lines, q=self.q)
 
 
@@ -406,11 +411,11 @@ def run_joints(settings: ViewerSettings, out: TextIO | None = None) -> None:
     out = out or sys.stdout
     robot = load_robot()
     cell = Cell(load_model())
-    q0 = Planner(robot, MotionConfig()).ready_q
+    planner = Planner(robot, MotionConfig())
     limits = (robot.q_lower.tolist(), robot.q_upper.tolist())
     viewer = LiveViewer(cell.model, settings, joint_limits=limits)
     try:
-        pose = JointPose(viewer, cell, q0)
+        pose = JointPose(viewer, cell, planner.kinematics, planner.ready_q)
         _announce(viewer, settings, out)
         _hold_open(pose.tick)
     finally:
