@@ -56,10 +56,16 @@ def test_report_is_a_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
 
 
 def test_version() -> None:
+    """One version: pyproject.toml's, as the installed metadata and ``__version__`` give it."""
+    import tomllib
+    from importlib.metadata import version
+
+    pyproject = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    assert __version__ == version("kr210_sim") == pyproject["project"]["version"]
     out = subprocess.run(
         [sys.executable, "-m", "kr210_sim", "--version"], capture_output=True, text=True, check=True
     ).stdout
-    assert out.strip() == f"kr210_sim {__version__}"
+    assert out.strip() == f"kr210_sim {pyproject['project']['version']}"
 
 
 def test_run_writes_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -105,10 +105,24 @@ def test_target_rests_in_each_slot(model: mujoco.MjModel, slot: int) -> None:
     assert np.linalg.norm(p - p0) < 1e-3
 
 
-def test_every_slot_and_drop_reachable() -> None:
+def test_every_slot_and_drop_reachable(model: mujoco.MjModel) -> None:
+    """Every grasp, pre-grasp and drop pose of the published cell has an IK solution, and that
+    solution set in the built model puts MuJoCo's gripper_link on the pose (an FK independent
+    of ours: the scene's joints as the builder wrote them)."""
     robot, motion, cell = load_robot(), MotionConfig(), published_cell()
     planner = Planner(robot, motion)
+    sim = Cell(model)
     depth = grasp_depth(robot, cell.target.radius)
+    reached = 0
+
+    def reach(T: np.ndarray) -> None:
+        nonlocal reached
+        sim.reset(kin.nearest(T, np.zeros(6)))
+        G = sim.gripper_pose()
+        assert np.abs(G[:3, 3] - T[:3, 3]).max() < 1e-6, (G[:3, 3], T[:3, 3])
+        assert np.abs(G[:3, :3] - T[:3, :3]).max() < 1e-6
+        reached += 1
+
     for slot in range(1, 10):
         p = cell.slot(slot)
         yaw = radial_yaw(p)
@@ -117,11 +131,12 @@ def test_every_slot_and_drop_reachable() -> None:
             T = np.eye(4)
             T[:3, :3] = [[u[0], -u[1], 0], [u[1], u[0], 0], [0, 0, 1]]
             T[:3, 3] = p - dist * u
-            q = kin.nearest(T, np.zeros(6))
-            assert np.all(q >= robot.q_lower) and np.all(q <= robot.q_upper)
+            reach(T)
     bx, by = cell.bin.position
-    for dx, dy in cell.bin.drop_offsets():
-        kin.nearest(planner.drop_pose((bx + dx, by + dy), cell.target.radius), np.zeros(6))
+    drops = cell.bin.drop_offsets()
+    for dx, dy in drops:
+        reach(planner.drop_pose((bx + dx, by + dy), cell.target.radius))
+    assert len(drops) == 9 and reached == 9 * 3 + 9
 
 
 def test_build_is_deterministic_and_committed_scene_is_current(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -2,22 +2,51 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import PlanningError
-from kr210_sim.plan.trajectory import (
-    JointLimits,
-    check_trajectory,
-    plan_cartesian_line,
-    plan_ptp,
-)
+from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_cartesian_line, plan_ptp
 from kr210_sim.robot import kinematics as kin
 from kr210_sim.robot.description import load_robot
 
 LIMITS = JointLimits.from_robot(load_robot(), MotionConfig())
 DT = 0.002
+
+
+@dataclass(frozen=True, slots=True)
+class TrajectoryStats:
+    """Worst values of a trajectory sampled every ``dt``.
+
+    Attributes:
+        duration: Duration [s].
+        velocity_ratio: max |qd| / v_max over joints and samples.
+        acceleration_ratio: max |qdd| / a_max over joints and samples.
+        max_step: Largest joint change between consecutive samples [rad].
+    """
+
+    duration: float
+    velocity_ratio: float
+    acceleration_ratio: float
+    max_step: float
+
+
+def check_trajectory(traj: Trajectory, limits: JointLimits, dt: float) -> TrajectoryStats:
+    """Sample ``traj`` every ``dt`` [s] and measure it against ``limits`` (PlanningError when a
+    sample leaves the position limits)."""
+    ts = np.arange(0.0, traj.duration + dt, dt)
+    q, qd, qdd = traj.sample_many(ts)
+    limits.check_position(q, "trajectory")
+    step = float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0
+    return TrajectoryStats(
+        duration=traj.duration,
+        velocity_ratio=float((np.abs(qd) / limits.v_max).max()),
+        acceleration_ratio=float((np.abs(qdd) / limits.a_max).max()),
+        max_step=step,
+    )
 
 
 def test_limits_from_robot() -> None:

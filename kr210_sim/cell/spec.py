@@ -2,7 +2,7 @@
 
 All lengths in [m], masses in [kg], angles in [rad], times in [s]; the world frame is the robot
 base frame (x towards the shelf, z up). Values follow the published KR210 pick-and-place cell
-(``shared/KR210.md``); where we deviate, the field's docstring says why.
+(listed in ``assets/kr210/README.md``); where we deviate, the field's docstring says why.
 """
 
 from __future__ import annotations

@@ -392,41 +392,6 @@ def plan_cartesian_line(
     return LineTrajectory(knots, path_len, profile, Ts, Tg)
 
 
-@dataclass(frozen=True, slots=True)
-class TrajectoryStats:
-    """Worst values of a trajectory sampled every ``dt``.
-
-    Attributes:
-        duration: Duration [s].
-        velocity_ratio: max |qd| / v_max over joints and samples.
-        acceleration_ratio: max |qdd| / a_max over joints and samples.
-        max_step: Largest joint change between consecutive samples [rad].
-    """
-
-    duration: float
-    velocity_ratio: float
-    acceleration_ratio: float
-    max_step: float
-
-
-def check_trajectory(traj: Trajectory, limits: JointLimits, dt: float = 0.002) -> TrajectoryStats:
-    """Sample ``traj`` every ``dt`` [s] and measure it against ``limits``.
-
-    Raises:
-        PlanningError: When a sample leaves the position limits.
-    """
-    ts = np.arange(0.0, traj.duration + dt, dt)
-    q, qd, qdd = traj.sample_many(ts)
-    limits.check_position(q, "trajectory")
-    step = float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0
-    return TrajectoryStats(
-        duration=traj.duration,
-        velocity_ratio=float((np.abs(qd) / limits.v_max).max()),
-        acceleration_ratio=float((np.abs(qdd) / limits.a_max).max()),
-        max_step=step,
-    )
-
-
 class ChainTrajectory(Trajectory):
     """Trajectories run one after the other (each at rest at its ends): a move through via
     points.

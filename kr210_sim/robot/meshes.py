@@ -360,11 +360,6 @@ def build_parts(link: str) -> dict[str, trimesh.Trimesh]:
     return {f: _join(parts[f]) for f in order if parts.get(f)}
 
 
-def build_mesh(link: str) -> trimesh.Trimesh:
-    """The whole visual mesh of URDF link ``link`` (every finish), in its link frame [m]."""
-    return _join(list(build_parts(link).values()))
-
-
 def mesh_file(link: str, finish: str) -> str:
     """File name of the ``finish`` part of ``link``'s visual mesh."""
     return f"{link}.stl" if finish == MAIN_FINISH[link] else f"{link}__{finish}.stl"
