@@ -21,7 +21,8 @@ joint moving more than 0.1 rad from ``q_ref`` (a wrist flip or a 2 pi jump there
 Hints, in the order the exercise takes them:
 
 1. Write the modified DH table from the URDF joint origins (see the published table in
-   assets/kr210/README.md, or assets/kr210/kr210.urdf). Do not forget a3 = -0.054 m between joints 3 and 4.
+   assets/kr210/README.md, or assets/kr210/kr210.urdf). Do not forget a3 = -0.054 m between
+   joints 3 and 4.
 2. The DH gripper frame is not gripper_link: R0_G(DH) = R(gripper_link) * Rz(pi) * Ry(-pi/2).
 3. Wrist centre: wc = p - 0.303 * (DH gripper z axis) = p - 0.303 * T[:3, 0].
 4. theta1 = atan2(wc_y, wc_x); theta2 and theta3 from the triangle joint_2 - joint_3 - wrist

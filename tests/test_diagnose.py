@@ -15,15 +15,17 @@ from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.user_ik import UserIk
 
+KIN = kinematics.committed()
+
 
 @pytest.fixture(scope="module")
 def cases() -> list[Case]:
-    return fixed_cases() + random_cases(60, seed=4)
+    return fixed_cases(KIN) + random_cases(KIN, 60, seed=4)
 
 
 def _codes(cases: list[Case], fn: Callable[..., Any], failed: tuple[Any, ...] = ()) -> list[str]:
-    records = check(UserIk("test:solve", fn), cases, io.StringIO())
-    return [f.code for f in diagnose(records, [c.T for c in cases], failed)]
+    records = check(KIN, UserIk("test:solve", fn), cases, io.StringIO())
+    return [f.code for f in diagnose(KIN, records, [c.T for c in cases], failed)]
 
 
 def _rz(angle: float) -> np.ndarray:
@@ -41,8 +43,8 @@ def test_the_missing_offset_is_named_with_its_54_mm(cases: list[Case], no_offset
     from kr210_sim.robot.user_ik import load_ik
 
     fn = load_ik(no_offset_ik).function
-    records = check(UserIk(no_offset_ik, fn), cases, io.StringIO())
-    found = diagnose(records, [c.T for c in cases])
+    records = check(KIN, UserIk(no_offset_ik, fn), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
     assert found[0].code == "offset_0054"
     assert "54.0 mm from the pose" in found[0].text
 
@@ -53,8 +55,8 @@ def test_a_fixed_frame_rotation_is_named_with_its_angle(cases: list[Case]) -> No
     def turned(T: np.ndarray, q: np.ndarray) -> np.ndarray:
         return kinematics.nearest(T @ X, q)
 
-    records = check(UserIk("t:s", turned), cases, io.StringIO())
-    found = diagnose(records, [c.T for c in cases])
+    records = check(KIN, UserIk("t:s", turned), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
     assert [f.code for f in found][:1] == ["gripper_frame"]
     assert "17.2 deg about [0.0, 0.0, 1.0]" in found[0].text
     # A rotation error that varies from answer to answer is not "fixed".
@@ -90,8 +92,8 @@ def test_answers_outside_the_limits_raises_and_nones_are_counted(cases: list[Cas
         a[4] = 3.0  # past joint_5's 125 deg, no twin inside
         return a
 
-    records = check(UserIk("t:s", outside), cases, io.StringIO())
-    found = {f.code: f.text for f in diagnose(records, [c.T for c in cases])}
+    records = check(KIN, UserIk("t:s", outside), cases, io.StringIO())
+    found = {f.code: f.text for f in diagnose(KIN, records, [c.T for c in cases])}
     assert set(found) == {"outside_limits", "raised", "none"}
     n_out = sum(r["q"] is not None and not r["within_limits"] for r in records)
     assert found["outside_limits"].startswith(f"{n_out} answers lie outside the joint limits")

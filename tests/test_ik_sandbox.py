@@ -49,7 +49,7 @@ def _gone(pid: int, within: float = 5.0) -> bool:
 
 def test_answers_are_those_of_the_function_in_process(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)
-    g = kinematics.geometry()
+    g = kinematics.committed().geometry
     here = load_ik(f"{EXAMPLE}:solve").function
     with IkSandbox(f"{EXAMPLE}:solve", scratch=tmp_path / "scratch") as box:
         for q in rng.uniform(g.lower, g.upper, size=(20, 6)):
@@ -76,7 +76,10 @@ def test_raised_none_and_junk_are_judged_as_in_process(tmp_path: Path) -> None:
     )
     T = kinematics.forward(Q)
     with IkSandbox(spec) as box:
-        problems = [assess(T, Q, _raw(box, T, q0)).problem for q0 in (0.7, 0.3, -0.3, -0.7)]
+        problems = [
+            assess(kinematics.committed(), T, Q, _raw(box, T, q0)).problem
+            for q0 in (0.7, 0.3, -0.3, -0.7)
+        ]
     assert problems[0] == "raised ValueError: no branch here"
     assert problems[1] == "returned None (unreachable)"
     assert problems[2].startswith("returned str, not six numbers (")

@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.robot import kinematics
 from kr210_sim.robot.ik_guard import ORIENTATION_TOL, POSITION_TOL
+from kr210_sim.robot.kinematics import Kinematics
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -96,11 +96,12 @@ def offset_left_out(records: Sequence[dict[str, Any]]) -> Finding | None:
 
 
 def fixed_rotation(
-    records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
+    kin: Kinematics, records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
 ) -> Finding | None:
     """``gripper_frame`` when every answer's orientation is off by the same rotation.
 
     Args:
+        kin: The kinematics of the robot the answers are for.
         records: ik-check records.
         poses: The requested pose (4x4) of each record, in the same order.
     """
@@ -108,7 +109,7 @@ def fixed_rotation(
     for r, T in zip(records, poses, strict=True):
         if r["q"] is None:
             continue
-        Rq = kinematics.forward(np.asarray(r["q"], dtype=np.float64))[:3, :3]
+        Rq = kin.forward(np.asarray(r["q"], dtype=np.float64))[:3, :3]
         rel.append(T[:3, :3].T @ Rq)  # the error, in the requested gripper frame
     if len(rel) < 3:
         return None
@@ -148,6 +149,7 @@ def _cycles_with(failed: Sequence[dict[str, Any]], words: str) -> list[int]:
 
 
 def diagnose(
+    kin: Kinematics,
     records: Sequence[dict[str, Any]],
     poses: Sequence[FloatArray],
     failed_cycles: Sequence[dict[str, Any]] = (),
@@ -155,6 +157,7 @@ def diagnose(
     """The classic mistakes visible in an ik-check and a run.
 
     Args:
+        kin: The kinematics of the robot the answers are for.
         records: ik-check records (:func:`kr210_sim.eval.ikcheck.case_record`).
         poses: The requested pose of each record (4x4).
         failed_cycles: The run's failed cycles, each with ``cycle`` and ``detail``.
@@ -163,7 +166,7 @@ def diagnose(
         The findings, most telling first (empty when nothing is recognised).
     """
     found: list[Finding] = []
-    for f in (offset_left_out(records), fixed_rotation(records, poses)):
+    for f in (offset_left_out(records), fixed_rotation(kin, records, poses)):
         if f is not None:
             found.append(f)
     counts = _branch_counts(records)

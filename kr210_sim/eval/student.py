@@ -25,7 +25,9 @@ from typing import Any
 
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
+from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop, die_with_parent
+from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
 from kr210_sim.util.outputs import write_json_atomic
@@ -175,9 +177,10 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     stopped: SandboxStop | None = None
     try:
         sandbox.start()
-        cases = fixed_cases() + random_cases(job.cases, job.seed)
+        kin = Kinematics(load_robot())
+        cases = fixed_cases(kin) + random_cases(kin, job.cases, job.seed)
         t = time.monotonic()
-        records = check(ik, cases, io.StringIO())
+        records = check(kin, ik, cases, io.StringIO())
         record["wall_time_s"]["ik_check"] = time.monotonic() - t
         record["ik_check"] = _ik_figures(records)
         t = time.monotonic()
@@ -200,7 +203,7 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     else:
         record["verdict"], record["detail"] = _verdict(job, record["ik_check"], run)
     if records and len(records) == len(cases):
-        found = diagnose(records, [c.T for c in cases], run["failed_cycles"])
+        found = diagnose(kin, records, [c.T for c in cases], run["failed_cycles"])
         record["diagnosis"] = [f.to_dict() for f in found]
         if job.plots:
             record["plots"] = _plots(Path(job.plots), records)
