@@ -163,6 +163,13 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT
         metavar="SPEC",
         help="plan with your IK: package.module:function or path/to/file.py:function",
     )
+    cmd.add_argument(
+        "--ik-timeout",
+        type=_seconds,
+        default=None,
+        metavar="S",
+        help="run --ik in its own process; no answer within S seconds: that cycle is ik_failed",
+    )
 
 
 def _add_video_options(cmd: argparse.ArgumentParser, camera: str, fps: str) -> None:
@@ -319,6 +326,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="plan every episode with your IK: package.module:function or path/to/file.py:function",
     )
     ev.add_argument(
+        "--ik-timeout",
+        type=_seconds,
+        default=None,
+        metavar="S",
+        help="run --ik in its own process; no answer within S seconds: the episode is ik_failed",
+    )
+    ev.add_argument(
         "--report",
         type=Path,
         default=DEFAULT_EVAL_REPORT,
@@ -348,6 +362,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SPEC",
         help="package.module:function or path/to/file.py:function (ours: "
         "kr210_sim.robot.kinematics:nearest)",
+    )
+    ikc.add_argument(
+        "--ik-timeout",
+        type=_seconds,
+        default=None,
+        metavar="S",
+        help="run --ik in a process of its own; no answer within S seconds fails the case",
     )
     ikc.add_argument(
         "--cases", type=_count, default=1000, help="random poses on top of the fixed set (1000)"

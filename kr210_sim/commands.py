@@ -25,14 +25,16 @@ if TYPE_CHECKING:
 DEFAULT_RECORD_RATE = 30
 
 
-def _load_ik(spec: str | None) -> Any:
-    """The user's IK for ``--ik SPEC`` (None without one); a bad SPEC is a one-line error here,
-    before anything runs."""
+def _load_ik(spec: str | None, timeout: float | None = None) -> Any:
+    """The user's IK for ``--ik SPEC`` (None without one), with ``--ik-timeout`` in a process of
+    its own; a bad SPEC is a one-line error here, before anything runs."""
     if spec is None:
+        if timeout is not None:
+            raise ConfigError("--ik-timeout needs --ik SPEC")
         return None
-    from kr210_sim.robot.user_ik import load_ik
+    from kr210_sim.robot.ik_sandbox import load_user_ik
 
-    return load_ik(spec)
+    return load_user_ik(spec, timeout)
 
 
 def _video_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -56,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from kr210_sim.errors import VideoFailedError
     from kr210_sim.media.video import VideoSettings
 
-    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    ik = _load_ik(args.ik, args.ik_timeout)  # a bad SPEC is one line here, before anything runs
     video = None
     given = _video_options(args)
     if args.video is not None:
@@ -186,7 +188,7 @@ def view(args: argparse.Namespace) -> int:
         return _view_replay(args, settings)
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
-    ik = _load_ik(args.ik)
+    ik = _load_ik(args.ik, args.ik_timeout)
     result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
     out = sys.stdout
     summary = result.report["summary"]
@@ -242,6 +244,7 @@ def evaluate(args: argparse.Namespace) -> int:
         address=args.address,
         ik=args.ik,
         cell=args.cell,
+        ik_timeout=args.ik_timeout,
     )
     outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
     report = outcome.report
@@ -276,6 +279,7 @@ def evaluate(args: argparse.Namespace) -> int:
             args.record_failures,
             config.cell or config.scene,
             ik=args.ik,
+            ik_timeout=args.ik_timeout,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:
@@ -303,7 +307,7 @@ def ik_check(args: argparse.Namespace) -> int:
     """``ik-check --ik SPEC``: grade an IK function."""
     from kr210_sim.api import ik_check
 
-    ik = _load_ik(args.ik)  # a bad SPEC is a one-line error here, before anything runs
+    ik = _load_ik(args.ik, args.ik_timeout)  # a bad SPEC is one line here, before anything runs
     result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
     out = sys.stdout
     out.write(result.text + "\n")

@@ -464,10 +464,10 @@ def evaluate_job(
     """
     from kr210_sim.eval.evaluate import evaluate
 
-    if config.ik is not None:
-        from kr210_sim.robot.user_ik import load_ik
+    if config.ik is not None:  # with --ik-timeout, in a process of its own
+        from kr210_sim.robot.ik_sandbox import load_user_ik
 
-        load_ik(config.ik)
+        load_user_ik(config.ik, config.ik_timeout)
     if config.backend == "ray":
         from importlib.util import find_spec
 

@@ -133,8 +133,8 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
     assert wrong["diagnosis"][0]["code"] == "offset_0054"
     assert wrong["run"]["successes"] == 0
     assert wrong["run"]["failed_cycles"][0]["replay"] == (
-        "python -m kr210_sim run --ik ../class/no_offset.py:solve --cycles 1 --seed 0 "
-        "--video videos/no_offset_cycle1.mp4"
+        "python -m kr210_sim run --ik ../class/no_offset.py:solve --ik-timeout 1 --cycles 1 "
+        "--seed 0 --video videos/no_offset_cycle1.mp4"
     )
     chatty = by_name["chatty"]["output"]
     assert chatty["bytes"] == 10_000 * 1024

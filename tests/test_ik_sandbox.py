@@ -242,3 +242,92 @@ def test_the_process_dies_with_its_parent(tmp_path: Path) -> None:
     finally:
         parent.kill()
         parent.wait()
+
+
+# ----------------------------------------------------------------------------- --ik-timeout
+HANGS_ONCE = """
+import os
+from ik_dh_copy import solve as _solve
+
+def solve(T, q):
+    if not os.path.exists("hung_once"):  # in the sandbox's scratch folder: survives a restart
+        open("hung_once", "w").close()
+        while True:
+            pass
+    return _solve(T, q)
+"""
+
+
+def _hangs_once(folder: Path) -> str:
+    (folder / "ik_dh_copy.py").write_text(EXAMPLE.read_text())
+    return _file(folder, "hangs_once", HANGS_ONCE)
+
+
+def test_load_user_ik_runs_it_apart_once_per_spec_and_limit(tmp_path: Path) -> None:
+    from kr210_sim.robot.ik_sandbox import load_user_ik
+
+    spec = f"{EXAMPLE}:solve"
+    assert load_user_ik(spec) is load_ik(spec)  # no limit: imported here
+    guarded = load_user_ik(spec, 3.0)
+    assert isinstance(guarded.function, IkSandbox) and guarded.spec == spec
+    assert load_user_ik(spec, 3.0) is guarded
+    T = kinematics.forward(Q)
+    np.testing.assert_allclose(guarded.function(T, Q), Q, atol=1e-9)
+    with pytest.raises(IkSpecError, match="no such file"):
+        load_user_ik(str(tmp_path / "nope.py:solve"), 1.0)
+
+
+@pytest.mark.slow
+def test_a_hanging_answer_ends_its_cycle_as_ik_failed_and_the_run_goes_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    from kr210_sim.cli import main
+
+    spec = _hangs_once(tmp_path)
+    report = tmp_path / "run.json"
+    t0 = time.monotonic()
+    argv = ["run", "--ik", spec, "--ik-timeout", "1", "--cycles", "2", "--slot", "5"]
+    assert main([*argv, "--report", str(report)]) == 1  # 1 of 2 is below the 80 % bar
+    assert time.monotonic() - t0 < 120
+    out = capsys.readouterr().out
+    assert "FAIL ik_failed" in out and "raised IkTimeout: no answer within 1 s" in out
+    cycles = __import__("json").loads(report.read_text())["cycles"]
+    assert [c["reason"] for c in cycles] == ["ik_failed", None]
+    assert cycles[0]["detail"].startswith("standoff pose [")
+    assert cycles[0]["detail"].endswith(f": {spec} raised IkTimeout: no answer within 1 s")
+
+
+@pytest.mark.slow
+def test_ik_check_and_evaluate_take_the_limit_too(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    import json
+
+    from kr210_sim.cli import main
+
+    spec = _hangs_once(tmp_path)
+    report = tmp_path / "ik.json"
+    argv = ["ik-check", "--ik", spec, "--ik-timeout", "1", "--cases", "0"]
+    assert main([*argv, "--report", str(report)]) == 1
+    cases = json.loads(report.read_text())["cases"]
+    assert [c["error"] for c in cases if not c["passed"]] == ["IkTimeout: no answer within 1 s"]
+    assert len(cases) == 65 and cases[0]["error"] is not None  # the first call hung
+    again = tmp_path / "again"  # a new SPEC: a new sandbox (one per SPEC and limit), not hung yet
+    again.mkdir()
+    spec = _hangs_once(again)
+    report = tmp_path / "ev" / "evaluate.json"
+    argv = ["evaluate", "--ik", spec, "--ik-timeout", "1", "--episodes", "2", "--workers", "1"]
+    assert main([*argv, "--report", str(report)]) == 1
+    data = json.loads(report.read_text())
+    assert data["summary"]["successes"] == 1
+    assert [e["reason"] for e in data["failed_episodes"]] == ["ik_failed"]
+    assert data["config"]["ik_timeout_s"] == 1.0
+    assert "--ik-timeout 1" in data["config"]["replay"]
+    capsys.readouterr()
+
+
+def test_ik_timeout_needs_ik(capsys: pytest.CaptureFixture) -> None:
+    from kr210_sim.cli import main
+
+    assert main(["run", "--ik-timeout", "1", "--cycles", "1"]) == 2
+    assert capsys.readouterr().err.strip() == "kr210_sim: error: --ik-timeout needs --ik SPEC"

@@ -45,16 +45,21 @@ def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
 
 
 def run_episode(
-    seed: int, randomize: bool, scene: Path | str | None = None, ik: str | None = None
+    seed: int,
+    randomize: bool,
+    scene: Path | str | None = None,
+    ik: str | None = None,
+    ik_timeout: float | None = None,
 ) -> CycleResult:
     """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
-    SPEC ``ik`` (None: ours; loaded once per process)."""
+    SPEC ``ik`` (None: ours; loaded once per process; with ``ik_timeout`` [s] in a process of
+    its own, :func:`~kr210_sim.robot.ik_sandbox.load_user_ik`)."""
     config = RunConfig(cycles=1, seed=seed, randomize=randomize)
     user_ik = None
     if ik is not None:
-        from kr210_sim.robot.user_ik import load_ik
+        from kr210_sim.robot.ik_sandbox import load_user_ik
 
-        user_ik = load_ik(ik)
+        user_ik = load_user_ik(ik, ik_timeout)
     runner = Runner(config, model=copy.copy(load_pristine(scene)), ik=user_ik)
     return runner.run_cycle(1, runner.slot_for_cycle())
 
@@ -87,14 +92,23 @@ def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
 
 
 def record_of(
-    index: int, seed: int, randomize: bool, scene: Path | str | None, ik: str | None = None
+    index: int,
+    seed: int,
+    randomize: bool,
+    scene: Path | str | None,
+    ik: str | None = None,
+    ik_timeout: float | None = None,
 ) -> dict[str, Any]:
     """Run episode ``index`` (seeded ``seed``) and return its record."""
-    return episode_record(index, seed, run_episode(seed, randomize, scene, ik))
+    return episode_record(index, seed, run_episode(seed, randomize, scene, ik, ik_timeout))
 
 
 def run_chunk(
-    jobs: Sequence[tuple[int, int]], randomize: bool, scene: str | None, ik: str | None = None
+    jobs: Sequence[tuple[int, int]],
+    randomize: bool,
+    scene: str | None,
+    ik: str | None = None,
+    ik_timeout: float | None = None,
 ) -> dict[str, Any]:
     """Run a chunk of episodes: the unit of work a backend ships to a worker.
 
@@ -103,6 +117,7 @@ def run_chunk(
         randomize: Randomise each episode's target.
         scene: MJCF scene path (must exist where this runs), or None for the committed scene.
         ik: SPEC of the user's IK (its file or module must exist where this runs), or None.
+        ik_timeout: Time limit per call of that IK [s] (it then runs in a process of its own).
 
     Returns:
         ``{"records": [record, ...], "versions": {...}}``: the records in ``jobs`` order and the
@@ -112,6 +127,6 @@ def run_chunk(
     from kr210_sim.util.versions import versions
 
     return {
-        "records": [record_of(i, s, randomize, scene, ik) for i, s in jobs],
+        "records": [record_of(i, s, randomize, scene, ik, ik_timeout) for i, s in jobs],
         "versions": versions(),
     }

@@ -81,6 +81,9 @@ class EvalConfig:
         address: Ray cluster address (``auto`` or ``host:port``); None starts Ray here.
         ik: SPEC of the user's IK to plan every episode with (``--ik``), or None for ours.
         cell: Cell file (TOML) compiled instead of a scene (``--cell``), or None.
+        ik_timeout: Time limit per call of the user's IK (``--ik-timeout``) [s]: it then runs
+            in a process of its own per worker, and a call with no answer in time makes that
+            episode ``ik_failed``. None: no limit, imported into each worker.
     """
 
     episodes: int = 100
@@ -92,6 +95,7 @@ class EvalConfig:
     address: str | None = None
     ik: str | None = None
     cell: Path | None = None
+    ik_timeout: float | None = None
 
     def __post_init__(self) -> None:
         if self.scene is not None and self.cell is not None:
@@ -104,6 +108,8 @@ class EvalConfig:
             raise ConfigError(f"seed must be >= 0, got {self.seed!r}")
         if self.backend not in BACKENDS:
             raise ConfigError(f"backend must be one of {', '.join(BACKENDS)}, got {self.backend!r}")
+        if self.ik_timeout is not None and (self.ik is None or not self.ik_timeout > 0):
+            raise ConfigError("--ik-timeout needs --ik SPEC and a time > 0 s")
         if self.address is not None and self.backend != "ray":
             raise ConfigError("--address needs --backend ray")
 
@@ -245,6 +251,7 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
         "scene": str(config.scene) if config.scene else None,
         **({"cell": str(config.cell)} if config.cell is not None else {}),
         **({"ik": config.ik} if config.ik is not None else {}),
+        **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
         "versions": versions(),
     }
 
@@ -308,11 +315,21 @@ def evaluate(
     backend: LocalBackend | RayBackend
     if config.backend == "ray":
         backend = RayBackend(
-            config.workers, config.randomize, _source(config), config.address, todo, config.ik
+            config.workers,
+            config.randomize,
+            _source(config),
+            config.address,
+            todo,
+            config.ik,
+            config.ik_timeout,
         )
     else:
         backend = LocalBackend(
-            _local_workers(config, todo), config.randomize, _source(config), config.ik
+            _local_workers(config, todo),
+            config.randomize,
+            _source(config),
+            config.ik,
+            config.ik_timeout,
         )
 
     caught: int | None = None
@@ -383,10 +400,12 @@ def _report(
             "scene": identity["scene"],
             "cell": str(config.cell) if config.cell else None,
             **({"ik": config.ik} if config.ik is not None else {}),
+            **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
             "randomization": _randomization(config),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
             + (" --randomize" if config.randomize else "")
             + (f" --ik {config.ik}" if config.ik is not None else "")
+            + (f" --ik-timeout {config.ik_timeout:g}" if config.ik_timeout is not None else "")
             + (f" --scene {config.scene}" if config.scene else "")
             + (f" --cell {config.cell}" if config.cell else ""),
         },

@@ -55,7 +55,12 @@ def _die_with_parent(parent: int) -> None:
 
 
 def _worker_main(
-    conn: Connection, parent: int, randomize: bool, scene: str | None, ik: str | None
+    conn: Connection,
+    parent: int,
+    randomize: bool,
+    scene: str | None,
+    ik: str | None,
+    ik_timeout: float | None = None,
 ) -> None:
     """A worker process: run the episodes the driver sends, reply with their records."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -69,7 +74,7 @@ def _worker_main(
                 reply: tuple[Any, ...] = (
                     "ok",
                     index,
-                    episode.record_of(index, seed, randomize, scene, ik),
+                    episode.record_of(index, seed, randomize, scene, ik, ik_timeout),
                 )
             except Exception as exc:
                 reply = ("error", index, f"{type(exc).__name__}: {exc}")
@@ -89,17 +94,24 @@ class LocalBackend:
         randomize: Randomise each episode's target.
         scene: MJCF scene path, or None for the committed scene.
         ik: SPEC of the user's IK, or None for ours.
+        ik_timeout: Time limit per call of that IK [s], or None.
     """
 
     name = "local"
 
     def __init__(
-        self, workers: int, randomize: bool, scene: Path | None, ik: str | None = None
+        self,
+        workers: int,
+        randomize: bool,
+        scene: Path | None,
+        ik: str | None = None,
+        ik_timeout: float | None = None,
     ) -> None:
         self.workers = workers
         self.randomize = randomize
         self.scene = str(scene) if scene is not None else None
         self.ik = ik
+        self.ik_timeout = ik_timeout
         self._procs: list[mp.process.BaseProcess] = []
         self._conns: list[Connection] = []
 
@@ -121,7 +133,14 @@ class LocalBackend:
                 mine, theirs = ctx.Pipe()
                 proc = ctx.Process(
                     target=_worker_main,
-                    args=(theirs, os.getpid(), self.randomize, self.scene, self.ik),
+                    args=(
+                        theirs,
+                        os.getpid(),
+                        self.randomize,
+                        self.scene,
+                        self.ik,
+                        self.ik_timeout,
+                    ),
                     name="kr210_sim-evaluate",
                 )
                 proc.start()
@@ -169,7 +188,11 @@ class LocalBackend:
         """
         if self.workers == 1:
             for index, seed in jobs:
-                yield [episode.record_of(index, seed, self.randomize, self.scene, self.ik)]
+                yield [
+                    episode.record_of(
+                        index, seed, self.randomize, self.scene, self.ik, self.ik_timeout
+                    )
+                ]
             return
         todo = iter(jobs)
         queued: dict[Connection, deque[int]] = {c: deque() for c in self._conns}

@@ -55,6 +55,7 @@ class RayBackend:
         randomize: Randomise each episode's target.
         scene: MJCF scene path (the same on every node), or None for the committed scene.
         ik: SPEC of the user's IK (its file at the same path on every node), or None.
+        ik_timeout: Time limit per call of that IK [s], or None.
         address: Cluster address (``auto`` or ``host:port``), or None to start Ray here.
         episodes: Episodes to run (caps the workers and sizes the chunks).
     """
@@ -69,11 +70,13 @@ class RayBackend:
         address: str | None,
         episodes: int,
         ik: str | None = None,
+        ik_timeout: float | None = None,
     ) -> None:
         self.workers = workers or 0
         self.randomize = randomize
         self.scene = str(scene.resolve()) if scene is not None else None
         self.ik = ik
+        self.ik_timeout = ik_timeout
         self.address = address
         self.episodes = episodes
         self.cpus = 0
@@ -177,7 +180,7 @@ class RayBackend:
                 chunk = list(islice(todo, self.chunk))
                 if not chunk:
                     return
-                ref = task.remote(chunk, self.randomize, self.scene, self.ik)
+                ref = task.remote(chunk, self.randomize, self.scene, self.ik, self.ik_timeout)
                 self._pending[ref] = [i for i, _ in chunk]
 
         submit()

@@ -78,8 +78,8 @@ def replay_command(job: StudentJob, cycle: int) -> str:
     cell carries over between cycles, so the failed one is filmed last)."""
     video = f"videos/{job.name}_cycle{cycle}.mp4"
     return (
-        f"python -m kr210_sim run --ik {shlex.quote(job.spec)} --cycles {cycle} "
-        f"--seed {job.seed} --video {shlex.quote(video)}"
+        f"python -m kr210_sim run --ik {shlex.quote(job.spec)} --ik-timeout {job.ik_timeout:g} "
+        f"--cycles {cycle} --seed {job.seed} --video {shlex.quote(video)}"
     )
 
 

@@ -626,6 +626,7 @@ def record_failures(
     scene: Path | None = None,
     rate: float = DEFAULT_RATE,
     ik: str | None = None,
+    ik_timeout: float | None = None,
 ) -> list[EpisodeRecording]:
     """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
 
@@ -636,6 +637,7 @@ def record_failures(
         scene: MJCF scene of the evaluation (default: the committed scene).
         rate: Frames per simulated second [Hz].
         ik: SPEC of the user's IK the evaluation planned with (``--ik``), or None for ours.
+        ik_timeout: Its time limit per call (``--ik-timeout``) [s], or None.
 
     Returns:
         One entry per failed episode, in the records' order.
@@ -650,9 +652,9 @@ def record_failures(
     pristine = model_at(scene)
     user_ik = None
     if ik is not None:
-        from kr210_sim.robot.user_ik import load_ik
+        from kr210_sim.robot.ik_sandbox import load_user_ik
 
-        user_ik = load_ik(ik)
+        user_ik = load_user_ik(ik, ik_timeout)
     return [
         record_episode(int(r["seed"]), randomize, out_dir, scene, rate, pristine, user_ik)
         for r in failed

@@ -53,6 +53,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError
+from kr210_sim.robot.user_ik import UserIk, load_ik
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -456,6 +457,36 @@ def _answer(message: dict[str, Any]) -> Any:
     return type(what, (), {"__array__": refuse, "__float__": refuse})()
 
 
+_GUARDED: dict[tuple[str, float], UserIk] = {}
+
+
+def load_user_ik(spec: str, timeout: float | None = None) -> UserIk:
+    """The user's IK for ``--ik SPEC [--ik-timeout S]``.
+
+    Without ``timeout`` it is imported here (:func:`~kr210_sim.robot.user_ik.load_ik`). With
+    one it runs in an :class:`IkSandbox` (``stop=False``, no memory limit, its output to ours),
+    started here so a bad SPEC is its one line now; a call with no answer within ``timeout``
+    raises :class:`IkTimeout` ("no answer within 2 s"), which the checks turn into an unusable
+    answer (that cycle is ``ik_failed``). One sandbox per SPEC and limit and process.
+
+    Raises:
+        IkSpecError: The SPEC names nothing loadable, or its import took longer than
+            :data:`LOAD_TIMEOUT`.
+    """
+    if timeout is None:
+        return load_ik(spec)
+    key = (spec, float(timeout))
+    if key not in _GUARDED:
+        box = IkSandbox(spec, Limits(call_timeout=timeout, memory_mb=None))
+        try:
+            box.start()
+        except (IkTimeout, IkCrashed) as exc:
+            box.close()
+            raise IkSpecError(f"--ik {spec!r}: {exc}") from None
+        _GUARDED[key] = UserIk(spec, box)
+    return _GUARDED[key]
+
+
 # ====================================================================== the user's process
 def _reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
     try:
@@ -510,8 +541,6 @@ def serve(argv: list[str]) -> int:
     """
     spec, req, ans, parent, limits = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
     _set_limits(json.loads(limits), parent)
-    from kr210_sim.robot.user_ik import load_ik
-
     try:
         fn = load_ik(spec).function
     except MemoryError:
