@@ -32,7 +32,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 
 
 def per_call(calls: int) -> None:
-    g = kinematics.geometry()
+    g = kinematics.committed().geometry
     qs = np.random.default_rng(0).uniform(g.lower, g.upper, size=(calls, 6))
     poses = [kinematics.forward(q) for q in qs]
     here = load_ik(f"{EXAMPLE}:solve").function
