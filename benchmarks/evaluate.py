@@ -60,7 +60,7 @@ def _run(config: EvalConfig) -> tuple[float, float, dict[str, Any]]:
     summary = outcome.report["summary"]
     assert summary["episodes"] == config.episodes, "the evaluation did not finish"
     steady = end - (watch.first or t)
-    return end - t, steady, outcome.report["execution"]
+    return end - t, steady, outcome.report["wall_execution"]
 
 
 def _line(name: str, episodes: int, wall: float, steady: float) -> tuple[float, float]:

@@ -25,7 +25,7 @@ def main() -> None:
         for i in range(1, 11):
             runner.run_cycle(i, runner.slot_for_cycle())
         s = summarise(runner.results)
-        p, c = s["planning_wall_time_s"], s["planning_cpu_time_s"]
+        p, c = s["wall_planning_time_s"], s["cpu_planning_time_s"]
         print(
             f"{name:<12} {s['successes']:>3}/10 {s['env_contact_ticks']:>8} {s['detours']:>7} "
             f"{1e3 * p['mean']:>6.1f} / {1e3 * p['max']:>5.1f} ms "

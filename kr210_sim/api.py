@@ -41,7 +41,7 @@ from kr210_sim.util.outputs import report_json
 if TYPE_CHECKING:
     from kr210_sim.media.video import VideoSettings
     from kr210_sim.robot.user_ik import UserIk
-    from kr210_sim.sim.runner import CycleResult
+    from kr210_sim.score.result import CycleResult
 
 __all__ = [
     "EvalReport",
@@ -126,7 +126,7 @@ class RunReport(Report):
 
     Attributes:
         cycles: One typed record per cycle (``success``, ``reason``, ``detail``, ``cycle_time``,
-            ...; see :class:`~kr210_sim.sim.runner.CycleResult`).
+            ...; see :class:`~kr210_sim.score.result.CycleResult`).
         video_path: The MP4 written, or None.
         video_frames: Frames in it.
         video_error: Why the video could not be made (then :func:`run` raised), or None.

@@ -260,7 +260,7 @@ def evaluate(args: argparse.Namespace) -> int:
         seeds = ", ".join(str(e["seed"]) for e in f["examples"])
         out.write(f"  {reason:<13} {f['count']}  (seeds {seeds})\n")
     ct = s["cycle_time"]
-    ex = report["execution"]
+    ex = report["wall_execution"]
     where = f"{ex['workers']} worker(s), {ex['backend']}"
     if ex["backend"] == "ray":
         where += f" ({ex['nodes']} node(s), {ex['cpus']} CPUs)"

@@ -42,7 +42,8 @@ from kr210_sim.media.render_pool import RenderPool, capped_workers, default_work
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
-from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+from kr210_sim.score.result import CycleResult
+from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.interrupts import signal_name
 from kr210_sim.util.outputs import (
     check_distinct,

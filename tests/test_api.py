@@ -19,7 +19,8 @@ from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError, IkSpecError, Kr210SimError
 from kr210_sim.robot import kinematics
 from kr210_sim.score.report import strip_wall
-from kr210_sim.sim.runner import CycleResult, Runner
+from kr210_sim.score.result import CycleResult
+from kr210_sim.sim.runner import Runner
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

@@ -57,7 +57,7 @@ def _records(n: int, seed: int) -> list[dict[str, Any]]:
                 "detail": "" if reason is None else f"d{i}",
                 "cycle_time": round(float(rng.integers(2200, 2900)) * 0.002, 6),
                 "creep_mm": float(rng.uniform(0, 5)),
-                "max_tracking_error_deg": float(rng.uniform(0, 0.2)),
+                "max_tracking_error_deg": rng.uniform(0, 0.2, size=6).tolist(),  # per joint
                 "grasp_attempts": int(rng.integers(1, 3)),
             }
         )
@@ -84,6 +84,7 @@ def test_summary_matches_a_direct_computation() -> None:
     assert s["cycle_time"]["max"] == float(times.max())
     gripped = [r["creep_mm"] for r in records if r["reason"] not in ("unreachable", "grasp_missed")]
     assert s["max_creep_mm"] == max(gripped)
+    assert s["max_tracking_error_deg"] == max(max(r["max_tracking_error_deg"]) for r in records)
     assert s["grasp_retries"] == sum(r["grasp_attempts"] - 1 for r in records)
     assert s["retries_recovered"] == sum(r["grasp_attempts"] > 1 for r in ok)
     for reason, f in s["failures"].items():

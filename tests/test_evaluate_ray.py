@@ -89,9 +89,9 @@ def test_the_cluster_gives_the_local_report_byte_for_byte(
     path = tmp_path / "e.json"
     outcome = evaluate(EvalConfig(**CONFIG, backend="ray", address=cluster.address), report=path)
     assert _text(path) == _text(local_report)
-    ex = outcome.report["execution"]
+    ex = outcome.report["wall_execution"]
     assert (ex["backend"], ex["nodes"], ex["cpus"], ex["workers"]) == ("ray", 2, 2, 2)
-    assert json.loads(local_report.read_text())["execution"]["backend"] == "local"
+    assert json.loads(local_report.read_text())["wall_execution"]["backend"] == "local"
 
 
 def test_a_worker_killed_mid_run_loses_and_double_counts_nothing(

@@ -78,5 +78,5 @@ def test_a_local_worker_killed_is_a_one_line_error_and_resume_finishes(tmp_path:
     )
     assert resumed.returncode == 0, resumed.stderr
     data = json.loads(report.read_text())
-    assert data["execution"]["resumed_episodes"] == kept >= 1
+    assert data["wall_execution"]["resumed_episodes"] == kept >= 1
     assert data["summary"]["episodes"] == record_count(tmp_path / "e.episodes.jsonl") == 8

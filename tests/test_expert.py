@@ -9,6 +9,7 @@ gym = pytest.importorskip("gymnasium")
 
 from kr210_sim.envs import ENV_ID, ScriptedExpert  # noqa: E402
 from kr210_sim.errors import ConfigError  # noqa: E402
+from kr210_sim.score.scoring import REST_SPEED, REST_SPIN, in_bin  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
@@ -16,15 +17,24 @@ pytestmark = pytest.mark.slow
 def _episode(env: gym.Env, expert: ScriptedExpert, seed: int) -> tuple[bool, int, float]:
     obs, _ = env.reset(seed=seed)
     steps, worst = 0, 0.0
+    cell = env.unwrapped.cell
     while True:
         action = expert(obs)
         assert env.action_space.contains(action)
         worst = max(worst, float(np.abs(action).max()))
         obs, reward, terminated, truncated, info = env.step(action)
         steps += 1
-        assert (reward == 0.0) == info["is_success"]  # the reward is the runner's scoring
         if terminated or truncated:
-            return bool(info["is_success"]), steps, worst
+            break
+        assert reward == -1.0  # no success before the episode ends on it
+    if info["is_success"]:  # and it is one, read off the physics, not off the info
+        position = cell.target_pose()[0]
+        assert in_bin(position, env.unwrapped.bin)
+        assert np.array_equal(position, obs["achieved_goal"])
+        assert cell.target_speed() < REST_SPEED and cell.target_spin() < REST_SPIN
+        assert not any(cell.finger_target_contacts()) and info["robot_cell_contacts"] == 0
+        assert reward == 0.0 and terminated and not truncated
+    return bool(info["is_success"]), steps, worst
 
 
 @pytest.mark.parametrize("control", ["joint", "cartesian"])

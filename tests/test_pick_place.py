@@ -3,6 +3,7 @@ vectorised rewards, bad actions, async vector envs and rendering."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -13,10 +14,11 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import kr210_sim.envs  # noqa: E402
-from kr210_sim.envs.pick_place import POLICY_DT, SUBSTEPS, PickPlaceEnv  # noqa: E402
+from kr210_sim.envs.pick_place import POLICY_DT, PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
 from kr210_sim.score.scoring import in_bin  # noqa: E402
 from kr210_sim.sim.runner import RunConfig, Runner, sample_target  # noqa: E402
+from kr210_sim.util.paths import SCENE_PATH  # noqa: E402
 
 ENV_ID = kr210_sim.envs.ENV_ID
 
@@ -32,7 +34,18 @@ def test_registered_and_made_by_id() -> None:
     assert isinstance(env.unwrapped, PickPlaceEnv)
     assert env.action_space.shape == (5,) and env.unwrapped.reward_type == "dense"
     assert gym.make(ENV_ID).action_space.shape == (7,)
-    assert POLICY_DT == 0.04 and SUBSTEPS * env.unwrapped.model.opt.timestep == POLICY_DT
+
+
+def test_a_scene_with_another_timestep_is_refused(tmp_path: Path) -> None:
+    """A policy step is 20 physics steps of the scene's: a 1 ms scene would make it 20 ms."""
+    xml = SCENE_PATH.read_text()
+    meshes = (SCENE_PATH.parent / "../assets/kr210/meshes").resolve()
+    xml = xml.replace('meshdir="../assets/kr210/meshes"', f'meshdir="{meshes}"')
+    xml = xml.replace("<option ", '<option timestep="0.001" ', 1)
+    scene = tmp_path / "fine.xml"
+    scene.write_text(xml)
+    with pytest.raises(ConfigError, match=r"timestep is 0.001 s; the environment needs 0.002"):
+        PickPlaceEnv(scene=scene)
 
 
 @pytest.mark.parametrize("control", ["joint", "cartesian"])
@@ -120,7 +133,11 @@ def test_compute_reward_is_vectorised_and_matches_success() -> None:
     goal = env.goal
     offsets = np.array([[0, 0, 0], [0, 0, 0.47], [0.45, 0, 0], [0, 0, -0.48]])
     ag = goal + offsets
-    info = {"rested_for": np.array([0.3, 0.3, 0.3, 0.3]), "released": np.ones(4, bool)}
+    info = {
+        "rested_for": np.array([0.3, 0.3, 0.3, 0.3]),
+        "released": np.ones(4, bool),
+        "robot_cell_contacts": np.zeros(4, int),
+    }
     r = env.compute_reward(ag, np.broadcast_to(goal, ag.shape), info)
     assert r.tolist() == [
         0.0,
@@ -128,9 +145,16 @@ def test_compute_reward_is_vectorised_and_matches_success() -> None:
         -1.0,
         -1.0,
     ]  # centre; under the rim; past a wall; under the floor
-    infos = [{"rested_for": t, "released": True} for t in (0.3, 0.1, 0.3, 0.3)]
+    infos = [
+        {"rested_for": t, "released": True, "robot_cell_contacts": n}
+        for t, n in ((0.3, 0), (0.1, 0), (0.3, 0), (0.3, 0))
+    ]
     assert env.compute_reward(ag, goal, infos).tolist() == [0.0, -1.0, -1.0, -1.0]
-    single = env.compute_reward(goal, goal, {"rested_for": 0.25, "released": False})
+    infos[0]["robot_cell_contacts"] = 3  # the arm hit the cell in that episode
+    assert env.compute_reward(ag, goal, infos).tolist() == [-1.0, -1.0, -1.0, -1.0]
+    single = env.compute_reward(
+        goal, goal, {"rested_for": 0.25, "released": False, "robot_cell_contacts": 0}
+    )
     assert single == -1.0 and isinstance(single, float)
     with pytest.raises(ConfigError, match="compute_reward needs the info"):
         env.compute_reward(goal, goal, {})
@@ -139,6 +163,47 @@ def test_compute_reward_is_vectorised_and_matches_success() -> None:
     expected = -(np.linalg.norm(obs["achieved_goal"] - goal) + 0.5 * info["gripper_to_target"])
     _, reward, *_ = dense.step(np.zeros(7))
     assert reward < 0 and np.isclose(reward, expected, atol=0.02)
+
+
+def _cylinder_into_the_bin(env: PickPlaceEnv) -> None:
+    """Stand the episode's cylinder on the bin floor at the goal's x, y (test setup)."""
+    c = env.cell
+    a, dof = int(c.handles.target_qpos[c.active_target]), int(c.handles.target_dof[c.active_target])
+    assert env.target is not None
+    z = env.bin.floor_top + env.target.spec.length / 2 + 1e-3
+    c.data.qpos[a : a + 7] = (*env.goal[:2], z, 1.0, 0.0, 0.0, 0.0)
+    c.data.qvel[dof : dof + 6] = 0.0
+
+
+@pytest.mark.parametrize("collide", [False, True])
+def test_a_robot_cell_collision_is_never_a_success(collide: bool) -> None:
+    """In one episode the arm is first driven into the floor (joint 2 at full speed: a real
+    contact in the physics), in the other it holds still; then the cylinder is stood in the bin
+    and left to rest. As ``run`` scores a cycle, the episode with the collision never
+    succeeds, however long the cylinder rests."""
+    env = PickPlaceEnv(control="joint", max_steps=60)
+    env.reset(seed=0)
+    dive = np.array([0, 1.0, 0, 0, 0, 0, -1.0]) if collide else np.r_[np.zeros(6), -1.0]
+    infos = [env.step(dive)[-1] for _ in range(15)]
+    assert any(i["robot_cell_contact"] for i in infos) is collide
+    _cylinder_into_the_bin(env)
+    hold = np.r_[np.zeros(6), -1.0]
+    rewards = []
+    for _ in range(15):
+        obs, reward, terminated, _, info = env.step(hold)
+        rewards.append(reward)
+        infos.append(info)
+        if terminated:
+            break
+    assert in_bin(obs["achieved_goal"], env.bin) and info["rested_for"] >= 0.25 and info["released"]
+    if not collide:
+        assert info["is_success"] and terminated and rewards[-1] == 0.0
+        assert info["robot_cell_contacts"] == 0
+        return
+    assert info["robot_cell_contacts"] > 0
+    assert not any(i["is_success"] for i in infos) and set(rewards) == {-1.0}
+    assert env.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == -1.0
+    assert env.reset(seed=0)[1]["robot_cell_contacts"] == 0  # counted per episode
 
 
 def test_truncation_at_the_step_limit() -> None:

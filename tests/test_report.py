@@ -41,6 +41,15 @@ def test_empty_summary() -> None:
     assert (s["cycles"], s["successes"], s["success_rate"]) == (0, 0, 0.0)
 
 
-def test_strip_wall() -> None:
-    report = {"summary": {"wall_time_s": 2.0, "cycles": 1}, "cycles": [{"wall_time": 1.0, "x": 2}]}
-    assert strip_wall(report) == {"summary": {"cycles": 1}, "cycles": [{"x": 2}]}
+def test_strip_wall_drops_exactly_the_measured_fields() -> None:
+    report = {
+        "summary": {"wall_time_s": 2.0, "cpu_planning_time_s": {"max": 1.0}, "cycles": 1},
+        "cycles": [{"wall_time": 1.0, "cpu_planning_time": 0.5, "x": 2, "time": 3.0}],
+        "wall_execution": {"workers": 2},
+        "sim_time": 4.0,
+    }
+    assert strip_wall(report) == {
+        "summary": {"cycles": 1},
+        "cycles": [{"x": 2, "time": 3.0}],
+        "sim_time": 4.0,
+    }

@@ -1,4 +1,4 @@
-"""Scoring on constructed situations: every failure reason and the success case."""
+"""Scoring on constructed situations: every failure reason, its detail, and the success case."""
 
 from __future__ import annotations
 
@@ -6,14 +6,20 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.layout import BinBox
+from kr210_sim.errors import IkFailedError, NoPathError, UnreachablePoseError
 from kr210_sim.score.scoring import (
     REST_SPEED,
     REST_SPIN,
     REST_WINDOW,
     CycleObservation,
     Outcome,
+    RestCounter,
+    bin_region,
+    episode_success,
     in_bin,
     is_still,
+    judge,
+    plan_failure,
     rest_window_ticks,
     score,
 )
@@ -24,7 +30,6 @@ IN_BIN = np.array([0.05, 2.5, 0.1])
 
 def obs(**kw: object) -> CycleObservation:
     base: dict[str, object] = dict(
-        planned=True,
         grasp_confirmed=True,
         held_until_release=True,
         released=True,
@@ -45,9 +50,12 @@ def test_success() -> None:
 @pytest.mark.parametrize(
     ("changes", "expected"),
     [
-        ({"planned": False, "grasp_confirmed": False}, Outcome.UNREACHABLE),
+        ({"plan_failure": Outcome.UNREACHABLE, "grasp_confirmed": False}, Outcome.UNREACHABLE),
+        ({"plan_failure": Outcome.NO_PATH, "grasp_confirmed": False}, Outcome.NO_PATH),
+        ({"plan_failure": Outcome.IK_FAILED}, Outcome.IK_FAILED),
         ({"robot_env_contacts": 3}, Outcome.COLLISION),
-        ({"grasp_confirmed": False, "target_toppled": True}, Outcome.KNOCKED_OVER),
+        ({"grasp_confirmed": False, "target_tilt_deg": 85.0}, Outcome.KNOCKED_OVER),
+        ({"grasp_confirmed": False, "target_tilt_deg": 20.0}, Outcome.GRASP_MISSED),
         (
             {"grasp_confirmed": False, "target_position": np.array([2.6, 0, 0.914])},
             Outcome.GRASP_MISSED,
@@ -59,7 +67,6 @@ def test_success() -> None:
         ({"released": False}, Outcome.DROPPED_IN_TRANSIT),
         ({"target_position": np.array([0.7, 2.5, 0.05])}, Outcome.MISSED_BIN),
         ({"target_position": np.array([0.0, 2.5, 1.2])}, Outcome.MISSED_BIN),  # on the rim
-        ({"target_speed": REST_SPEED * 5, "rested_for": 0.0}, Outcome.MISSED_BIN),  # moving
         ({"rested_for": REST_WINDOW - 0.002}, Outcome.MISSED_BIN),  # still, but not for long
     ],
 )
@@ -68,8 +75,96 @@ def test_failure_reasons(changes: dict[str, object], expected: Outcome) -> None:
 
 
 def test_precedence_unreachable_over_everything() -> None:
-    o = obs(planned=False, robot_env_contacts=5, grasp_confirmed=False)
+    o = obs(plan_failure=Outcome.UNREACHABLE, robot_env_contacts=5, grasp_confirmed=False)
     assert score(o, BIN) is Outcome.UNREACHABLE
+
+
+def test_plan_failures_by_error() -> None:
+    assert plan_failure(IkFailedError("x")) is Outcome.IK_FAILED
+    assert plan_failure(NoPathError("x")) is Outcome.NO_PATH
+    assert plan_failure(UnreachablePoseError("x")) is Outcome.UNREACHABLE
+
+
+def test_moving_at_the_end_is_not_at_rest() -> None:
+    """The settle wait's rest count, fed tick by tick: one moving tick at the end restarts it,
+    so a target still moving when the wait ends is not scored at rest."""
+    rest = RestCounter(0.002)
+    ticks = [rest.update(0.0, 0.0) for _ in range(rest.window)]
+    assert ticks[-1] and not any(ticks[:-1]) and rest.rested_for == pytest.approx(REST_WINDOW)
+    assert score(obs(rested_for=rest.rested_for), BIN) is Outcome.SUCCESS
+    speed = REST_SPEED * 5
+    assert not rest.update(speed, 0.0) and rest.rested_for == 0.0
+    moving = obs(target_speed=speed, rested_for=rest.rested_for)
+    outcome, detail = judge(moving, BIN)
+    assert outcome is Outcome.MISSED_BIN
+    assert "inside the bin" in detail and f"moving at {speed:.3f} m/s" in detail
+    rest.update(0.0, REST_SPIN * 2)  # turning fast with a still centre is moving too
+    assert rest.rested_for == 0.0
+
+
+@pytest.mark.parametrize(
+    ("changes", "words"),
+    [
+        ({}, [""]),
+        (
+            {"plan_failure": Outcome.NO_PATH, "plan_message": "the carry move hits bin_wall"},
+            ["the carry move hits bin_wall"],
+        ),
+        (
+            {"robot_env_contacts": 7, "contact_pairs": (("link_6", "bin_wall_n"),)},
+            ["7 ticks", "link_6/bin_wall_n"],
+        ),
+        (
+            {
+                "grasp_confirmed": False,
+                "target_tilt_deg": 88.4,
+                "grasp_attempts": 1,
+                "finger_gap": 0.0712,
+                "target_radius": 0.05,
+                "slot": 5,
+            },
+            ["knocked over in slot 5", "(axis 88 deg", "finger gap 71.2 mm", "diameter 100.0 mm"],
+        ),
+        (
+            {"grasp_confirmed": False, "grasp_attempts": 2, "finger_gap": 0.02},
+            ["grip not confirmed on attempt 2", "finger gap 20.0 mm"],
+        ),
+        ({"held_until_release": False}, ["left the fingers", "[0.05, 2.5, 0.1]"]),
+        (
+            {"target_position": np.array([0.7, 2.5, 0.05])},
+            ["ended outside the bin at [0.7, 2.5, 0.05]"],
+        ),
+    ],
+)
+def test_detail_says_what_was_measured(changes: dict[str, object], words: list[str]) -> None:
+    outcome, detail = judge(obs(**changes), BIN)
+    assert (detail == "") is (outcome is Outcome.SUCCESS)
+    assert all(w in detail for w in words), detail
+
+
+def test_episode_success_is_the_cycle_rule() -> None:
+    """The Gymnasium environment's success (vectorised) agrees with :func:`score` on the same
+    facts, a robot-cell contact included."""
+    centre, half = bin_region(BIN)
+    cases = [
+        {},
+        {"robot_env_contacts": 1},
+        {"released": False},
+        {"rested_for": 0.1},
+        {"target_position": np.array([0.7, 2.5, 0.05])},
+        {"target_position": np.array([0.0, 2.5, 1.2])},
+    ]
+    observed = [obs(**c) for c in cases]
+    batch = episode_success(
+        np.array([o.target_position for o in observed]),
+        np.array([o.rested_for for o in observed]),
+        np.array([o.released for o in observed]),
+        np.array([o.robot_env_contacts for o in observed]),
+        centre,
+        half,
+    )
+    assert batch.tolist() == [score(o, BIN) is Outcome.SUCCESS for o in observed]
+    assert batch.tolist() == [True, False, False, False, False, False]
 
 
 def test_in_bin_walls_and_rim() -> None:

@@ -31,10 +31,12 @@ Actions in ``Box(-1, 1)``:
 An action with NaN or infinite entries, of the wrong shape or outside [-1, 1] raises
 :class:`~kr210_sim.errors.ActionError` before anything reaches MuJoCo.
 
-Success (``info["is_success"]``) is the runner's scoring of the cylinder
-(:func:`kr210_sim.score.scoring.at_rest_in_bin`: centre in the bin, still for ``REST_WINDOW``,
-counted
-every physics tick as the runner counts it), with the fingers no longer touching it. Reward:
+Success (``info["is_success"]``) is decided by the runner's scoring
+(:func:`kr210_sim.score.scoring.episode_success`, the rule :func:`~kr210_sim.score.scoring.score`
+applies to a cycle): no robot contact with the cell during the episode (counted every physics
+tick, ``info["robot_cell_contacts"]``), the fingers off the cylinder, its centre in the bin and
+still for ``REST_WINDOW`` (one :class:`~kr210_sim.score.scoring.RestCounter`, fed every physics
+tick as the runner feeds it). Reward:
 ``"sparse"`` (default) -1 per step until success, 0 then; ``"dense"`` minus the distance from the
 cylinder to the goal and half the distance from the gripper to the cylinder, 0 on success.
 Episodes terminate on success and are truncated after ``max_steps`` steps.
@@ -59,9 +61,10 @@ from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.planner import gripper_pose
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
-from kr210_sim.score.scoring import REST_WINDOW, at_rest_in_bin, is_still
+from kr210_sim.score.result import TargetSample
+from kr210_sim.score.scoring import RestCounter, bin_region, episode_success
 from kr210_sim.sim.cell import Cell, hold
-from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, TargetSample, sample_target
+from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, sample_target
 from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
@@ -181,8 +184,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self._grip_range = (float(lo), float(hi))
         b = self.layout.bin
         self.bin = b
-        self.goal = np.array([*b.center, (b.floor_top + b.rim) / 2.0])
-        self.goal_half_extents = np.array([*b.inner_half, (b.rim - b.floor_top) / 2])
+        self.goal, self.goal_half_extents = bin_region(b)
 
         n = CONTROLS[control]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
@@ -202,8 +204,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.p_cmd = np.zeros(3)
         self.yaw_cmd = 0.0
         self.grip_cmd = -1.0
-        self._still = 0
-        self._success = False
+        self._rest = RestCounter(self.model.opt.timestep)
+        self._contacts = 0
 
     # -- Gymnasium API -----------------------------------------------------------------------
     def reset(
@@ -244,7 +246,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         T = self.kinematics.forward(self.q_cmd)
         self.p_cmd, self.yaw_cmd = T[:3, 3].copy(), _yaw(T[:3, :3])
         self.grip_cmd = -1.0
-        self.steps, self._still, self._success = 0, 0, False
+        self.steps, self._contacts = 0, 0
+        self._rest.reset()
         self.episode += 1
         return self._observation(), self._info()
 
@@ -266,12 +269,14 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         q_prev, self.q_cmd = self.q_cmd, q_next
         qd = (q_next - q_prev) / POLICY_DT
 
-        qvel, dof = self.cell.data.qvel, int(self.cell.handles.target_dof[self.cell.active_target])
+        d, h = self.cell.data, self.cell.handles
+        qvel, dof = d.qvel, int(h.target_dof[self.cell.active_target])
+        sensors = list(h.env_contact_sensors)
 
-        def watch(c: Cell) -> bool:  # the runner's rest count, every physics tick
+        def watch(c: Cell) -> bool:  # the runner's rest and contact counts, every physics tick
             vx, vy, vz, wx, wy, wz = qvel[dof : dof + 6].tolist()
-            still = is_still(math.hypot(vx, vy, vz), math.hypot(wx, wy, wz))
-            self._still = self._still + 1 if still else 0
+            self._rest.update(math.hypot(vx, vy, vz), math.hypot(wx, wy, wz))
+            self._contacts += bool(d.sensordata[sensors].any())
             return False
 
         self.cell.step_command(q_prev, qd, SUBSTEPS, until=watch)
@@ -287,11 +292,12 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
     ) -> npt.NDArray[np.float64] | float:
         """Reward of reaching ``achieved_goal`` for ``desired_goal``, vectorised over a batch.
 
-        The goal counts as reached when the achieved goal lies in the goal region
-        (:data:`goal_half_extents` around the desired goal; for the bin, exactly
-        :func:`kr210_sim.score.scoring.in_bin`), the cylinder has been still for ``REST_WINDOW``
-        (``info["rested_for"]``) and the fingers let go of it (``info["released"]``), so with
-        the episode's own goal the reward is 0 exactly when ``info["is_success"]``.
+        The goal counts as reached by the runner's rule
+        (:func:`kr210_sim.score.scoring.episode_success`) with the goal region
+        :data:`goal_half_extents` around the desired goal (for the bin, its inside): the achieved
+        goal in the region, the cylinder still for ``REST_WINDOW`` (``info["rested_for"]``), the
+        fingers off it (``info["released"]``) and no robot-cell contact in the episode
+        (``info["robot_cell_contacts"]``).
 
         Args:
             achieved_goal: Shape (3,) or (n, 3) [m].
@@ -304,9 +310,14 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         """
         ag = np.asarray(achieved_goal, dtype=np.float64)
         dg = np.asarray(desired_goal, dtype=np.float64)
-        inside = np.all(np.abs(ag - dg) < self.goal_half_extents, axis=-1)
-        rested = _info_values(info, "rested_for") >= REST_WINDOW - 1e-9
-        reached = inside & rested & _info_values(info, "released").astype(bool)
+        reached = episode_success(
+            ag,
+            _info_values(info, "rested_for"),
+            _info_values(info, "released"),
+            _info_values(info, "robot_cell_contacts"),
+            dg,
+            self.goal_half_extents,
+        )
         if self.reward_type == "sparse":
             r = np.where(reached, 0.0, -1.0)
         else:
@@ -403,9 +414,11 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
     def _info(self) -> dict[str, Any]:
         c = self.cell
         position = c.target_pose()[0]
-        rested_for = self._still * float(self.model.opt.timestep)
+        rested_for = self._rest.rested_for
         released = not any(c.finger_target_contacts())
-        success = at_rest_in_bin(position, rested_for, self.bin) and released
+        success = episode_success(
+            position, rested_for, released, self._contacts, self.goal, self.goal_half_extents
+        )
         sensors = c.data.sensordata[list(c.handles.env_contact_sensors)]
         return {
             "is_success": bool(success),
@@ -413,6 +426,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             "released": released,
             "gripper_to_target": float(np.linalg.norm(c.gripper_pose()[:3, 3] - position)),
             "robot_cell_contact": bool(sensors.any()),  # shelf, bin, obstacles, floor
+            "robot_cell_contacts": self._contacts,  # ticks with one, this episode
             "slot": self.target.slot if self.target is not None else 0,
             "time": c.time,
         }

@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+from kr210_sim.score.result import CycleResult, cycle_record
+from kr210_sim.sim.runner import RunConfig, Runner
 
 import mujoco  # isort: skip
 
@@ -65,30 +66,10 @@ def run_episode(
 
 
 def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
-    """The record of one episode (a line of the episodes file; failures also in the report)."""
-    s = r.target.spec
-    return {
-        "episode": index,
-        "seed": seed,
-        "slot": r.slot,
-        "success": r.success,
-        "reason": r.reason,
-        "detail": r.detail,
-        "cycle_time": r.cycle_time,
-        "creep_mm": r.creep_mm,
-        "max_tracking_error_deg": max(r.max_tracking_error_deg),
-        "max_gripper_tracking_error_mm": r.max_gripper_tracking_error_mm,
-        "grasp_attempts": r.grasp_attempts,
-        "target": {
-            "position": [round(x, 6) for x in r.target.position],
-            "yaw": round(r.target.yaw, 6),
-            "radius": round(s.radius, 6),
-            "length": round(s.length, 6),
-            "mass": round(s.mass, 6),
-            "friction": round(s.friction, 6),
-        },
-        "wall_time": r.wall_time,
-    }
+    """The record of one episode (a line of the episodes file; failures also in the report): the
+    cycle record (:func:`kr210_sim.score.result.cycle_record`, as ``run`` reports a cycle) with
+    the episode's number and seed in front."""
+    return {"episode": index, "seed": seed, **cycle_record(r)}
 
 
 def record_of(

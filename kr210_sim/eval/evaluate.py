@@ -2,7 +2,7 @@
 
 Each episode is a pure function of its seed (see :mod:`kr210_sim.eval.episode`), so the report does
 not depend on the backend, the worker count, the order episodes finish in, or on whether the
-evaluation was interrupted and resumed: only the fields under ``execution`` (backend, workers,
+evaluation was interrupted and resumed: only the fields under ``wall_execution`` (backend, workers,
 nodes, wall time) do. Records stream to the episodes file beside the report as they finish
 (:mod:`kr210_sim.eval.stream`), the summary is accumulated in bounded memory
 (:mod:`kr210_sim.eval.summary`), and the report keeps the summary plus the failed episodes'
@@ -413,7 +413,7 @@ def _report(
         "failed_episodes": summary.failed_records(),
         "episodes_file": log_path.name if log_path is not None else None,
         "interrupted": interrupted,
-        "execution": execution,
+        "wall_execution": execution,
         "versions": identity["versions"],
     }
 

@@ -116,7 +116,7 @@ class LocalBackend:
         self._conns: list[Connection] = []
 
     def execution(self) -> dict[str, Any]:
-        """How the work is spread (for the report's ``execution``)."""
+        """How the work is spread (for the report's ``wall_execution``)."""
         return {"backend": self.name, "workers": self.workers, "nodes": 1}
 
     def __enter__(self) -> LocalBackend:

@@ -86,7 +86,7 @@ class RayBackend:
         self._pending: dict[Any, list[int]] = {}
 
     def execution(self) -> dict[str, Any]:
-        """How the work is spread (for the report's ``execution``)."""
+        """How the work is spread (for the report's ``wall_execution``)."""
         return {
             "backend": self.name,
             "address": self.address or "local",

@@ -109,7 +109,9 @@ class EpisodeSummary:
         """Count one episode's record (see :func:`kr210_sim.eval.episode.episode_record`)."""
         self.episodes += 1
         self.grasp_retries += r["grasp_attempts"] - 1
-        self.max_tracking_error_deg = max(self.max_tracking_error_deg, r["max_tracking_error_deg"])
+        self.max_tracking_error_deg = max(
+            self.max_tracking_error_deg, max(r["max_tracking_error_deg"], default=0.0)
+        )
         if r["reason"] not in _NO_GRIP:
             self.max_creep_mm = max(self.max_creep_mm, r["creep_mm"])
         if r["success"]:

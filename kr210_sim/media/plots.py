@@ -17,8 +17,8 @@ import numpy as np
 from kr210_sim.robot.description import ARM_JOINTS, RobotDescription
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.metrics import gripper_tracking_error_mm
+from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.cell import Recording
-from kr210_sim.sim.runner import CycleResult
 from kr210_sim.util.outputs import atomic_path, check_folder
 
 #: The files :func:`write_plots` writes.

@@ -1,10 +1,11 @@
 """Run reports: the JSON record, the per-cycle line and the summary table.
 
 Reports are written atomically (:mod:`kr210_sim.util.outputs`), so an interrupted write never
-leaves a
-half-written report behind. Fields that depend on the machine
-(wall times, real-time factor) are collected under keys named ``wall_*`` / ``*_wall`` so that
-determinism checks can drop them.
+leaves a half-written report behind. One naming rule says what varies between identical runs:
+every field measured on the machine (wall-clock and CPU times, the real-time factor, how an
+evaluation was spread over processes) is named ``wall_*`` or ``cpu_*``, and :func:`strip_wall`
+drops exactly those, so the same seed gives the same report after it (tested for ``run``,
+``evaluate`` and ``view``).
 """
 
 from __future__ import annotations
@@ -16,35 +17,28 @@ from typing import Any
 
 import numpy as np
 
-from kr210_sim.sim.runner import CycleResult, RunConfig
-from kr210_sim.sim.targets import Event
+from kr210_sim.score.result import CycleResult, Event
 from kr210_sim.util.interrupts import signal_name
 from kr210_sim.util.versions import versions
 
 __all__ = [
-    "WALL_KEYS",
+    "MEASURED_PREFIXES",
     "build_report",
     "cycle_line",
+    "is_measured",
     "strip_wall",
     "summarise",
     "summary_table",
 ]
 
-#: Keys whose values depend on the machine or on how the work was spread over processes, not on
-#: the simulation (``execution``: worker count and wall time of an evaluation).
-WALL_KEYS = frozenset(
-    {
-        "wall_time",
-        "wall_time_s",
-        "real_time_factor",
-        "steps_per_second",
-        "execution",
-        "planning_wall_time",
-        "planning_wall_time_s",
-        "planning_cpu_time",
-        "planning_cpu_time_s",
-    }
-)
+#: Key prefixes of the fields measured on the machine rather than simulated (they vary between
+#: identical runs; everything else is a function of the seed and the cell).
+MEASURED_PREFIXES = ("wall_", "cpu_")
+
+
+def is_measured(key: str) -> bool:
+    """Whether a report key names a machine-measured figure (``wall_*`` or ``cpu_*``)."""
+    return key.startswith(MEASURED_PREFIXES)
 
 
 def summarise(results: Sequence[CycleResult], wall_time: float | None = None) -> dict[str, Any]:
@@ -84,13 +78,14 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         "detours": sum(r.detours for r in results),
     }
     if n:
-        plan = np.array([r.planning_wall_time for r in results])
-        summary["planning_wall_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
-        cpu = np.array([r.planning_cpu_time for r in results])
-        summary["planning_cpu_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
+        plan = np.array([r.wall_planning_time for r in results])
+        summary["wall_planning_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
+        cpu = np.array([r.cpu_planning_time for r in results])
+        summary["cpu_planning_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
-        summary["real_time_factor"] = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
+        rtf = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
+        summary["wall_real_time_factor"] = rtf
     return summary
 
 
@@ -109,7 +104,7 @@ def _jsonable(obj: Any) -> Any:
 
 
 def build_report(
-    config: RunConfig,
+    config: object,
     results: Sequence[CycleResult],
     wall_time: float | None,
     interrupted: BaseException | bool | None = None,
@@ -119,7 +114,7 @@ def build_report(
     """The JSON-ready report of a run.
 
     Args:
-        config: The run's settings.
+        config: The run's settings (:class:`kr210_sim.sim.runner.RunConfig`, a dataclass).
         results: The cycles that finished.
         wall_time: Wall-clock time of the run [s], if known.
         interrupted: The interrupt that stopped the run (or True), None/False when it ran to
@@ -135,7 +130,7 @@ def build_report(
         "kind": "kr210_sim.run",
         "config": _jsonable(config),
         "cell": _jsonable(cell),
-        "cycles": [_jsonable(r.to_dict()) for r in results],
+        "cycles": [r.to_dict() for r in results],
         "events": [e.to_dict() for e in events],
         "summary": summarise(results, wall_time),
         "interrupted": bool(interrupted),
@@ -147,9 +142,10 @@ def build_report(
 
 
 def strip_wall(obj: Any) -> Any:
-    """A copy of a report with every machine-dependent (wall-time) field removed."""
+    """A copy of a report without its machine-measured fields (:func:`is_measured`): what
+    identical runs must agree on."""
     if isinstance(obj, dict):
-        return {k: strip_wall(v) for k, v in obj.items() if k not in WALL_KEYS}
+        return {k: strip_wall(v) for k, v in obj.items() if not is_measured(str(k))}
     if isinstance(obj, list):
         return [strip_wall(v) for v in obj]
     return obj
@@ -187,11 +183,7 @@ def summary_table(summary: dict[str, Any]) -> str:
         ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
     ]
     if "wall_time_s" in summary:
-        rows.append(
-            (
-                "wall time",
-                f"{summary['wall_time_s']:.2f} s ({summary['real_time_factor']:.0f}x real time)",
-            )
-        )
+        wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
+        rows.append(("wall time", f"{wall:.2f} s ({rtf:.0f}x real time)"))
     w = max(len(k) for k, _ in rows)
     return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)

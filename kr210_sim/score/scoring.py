@@ -1,7 +1,9 @@
-"""Scoring one pick-and-place cycle from what was observed.
+"""Scoring one pick-and-place cycle from what was observed: the outcome and its detail.
 
-Scoring is a pure function of a :class:`CycleObservation` (filled in by the runner from the
-simulation), so every failure reason can be tested on constructed situations.
+This module is the one owner of the rule for success. Scoring is a pure function of a
+:class:`CycleObservation` (filled in by the runner from the simulation), so every failure reason
+can be tested on constructed situations; the Gymnasium environment judges its episodes with the
+same functions (:func:`episode_success`), and both count rest with one :class:`RestCounter`.
 """
 
 from __future__ import annotations
@@ -13,6 +15,29 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import BinBox
+from kr210_sim.errors import IkFailedError, NoPathError
+
+__all__ = [
+    "REST_SPEED",
+    "REST_SPIN",
+    "REST_WINDOW",
+    "TOPPLED_TILT_DEG",
+    "CycleObservation",
+    "Outcome",
+    "RestCounter",
+    "bin_region",
+    "describe",
+    "episode_success",
+    "in_bin",
+    "in_region",
+    "is_still",
+    "judge",
+    "plan_failure",
+    "rest_window_ticks",
+    "score",
+]
+
+FloatArray = npt.NDArray[np.float64]
 
 
 class Outcome(StrEnum):
@@ -38,6 +63,10 @@ REST_SPEED = 0.02
 REST_SPIN = 0.2
 #: How long a target must stay still to count as at rest [s].
 REST_WINDOW = 0.25
+#: Tilt of a target's axis from the vertical beyond which it counts as knocked over [deg].
+TOPPLED_TILT_DEG = 30.0
+#: Slack on time comparisons [s] (a sum of ticks of 2 ms is not exactly REST_WINDOW).
+_TIME_SLACK = 1e-9
 
 
 def is_still(speed: float, spin: float) -> bool:
@@ -50,12 +79,41 @@ def rest_window_ticks(timestep: float) -> int:
     return max(1, round(REST_WINDOW / timestep))
 
 
+class RestCounter:
+    """Counts how long a target has been still (:func:`is_still`), one physics tick at a time.
+
+    The runner's settle wait and the Gymnasium environment's steps both feed it every tick.
+
+    Args:
+        timestep: The physics timestep [s].
+    """
+
+    def __init__(self, timestep: float) -> None:
+        self.timestep = float(timestep)
+        self.window = rest_window_ticks(self.timestep)
+        self.ticks = 0
+
+    def update(self, speed: float, spin: float) -> bool:
+        """Count one tick of a target moving at ``speed`` [m/s] and turning at ``spin``
+        [rad/s]; True once it has been still for :data:`REST_WINDOW`."""
+        self.ticks = self.ticks + 1 if is_still(speed, spin) else 0
+        return self.ticks >= self.window
+
+    def reset(self) -> None:
+        """Start counting again."""
+        self.ticks = 0
+
+    @property
+    def rested_for(self) -> float:
+        """How long the target has been still [s]."""
+        return self.ticks * self.timestep
+
+
 @dataclass(frozen=True, slots=True)
 class CycleObservation:
     """What the runner saw during one cycle.
 
     Attributes:
-        planned: False when no plan existed (a pose out of reach or past a joint limit).
         grasp_confirmed: True when the grip was confirmed after closing.
         held_until_release: True when the target stayed between the fingers until the gripper
             opened over the bin.
@@ -65,24 +123,65 @@ class CycleObservation:
         target_speed: Final linear speed of the target in [m/s].
         target_spin: Final angular speed of the target in [rad/s].
         rested_for: How long the target had been still (:func:`is_still`) at the end [s].
-        target_toppled: True when the grip failed and the target was left tipped over (see
-            :data:`TOPPLED_TILT_DEG`).
+        plan_failure: Why no plan existed (:attr:`Outcome.UNREACHABLE`, ``IK_FAILED`` or
+            ``NO_PATH``, see :func:`plan_failure`), None when the cycle was planned.
+        plan_message: The planner's sentence on that failure.
+        target_tilt_deg: Angle of the target's axis from the vertical when the grip was given
+            up [deg] (0 when it was confirmed).
+        grasp_attempts: Grasp attempts made.
+        finger_gap: Finger gap after the last unconfirmed grip [m].
+        target_radius: The target's radius [m].
+        slot: The slot the target was picked from.
+        contact_pairs: Names of robot/environment geom pairs that touched.
     """
 
-    planned: bool
     grasp_confirmed: bool
     held_until_release: bool
     released: bool
     robot_env_contacts: int
-    target_position: npt.NDArray[np.float64]
+    target_position: FloatArray
     target_speed: float
     target_spin: float
     rested_for: float
-    target_toppled: bool = False
+    plan_failure: Outcome | None = None
+    plan_message: str = ""
+    target_tilt_deg: float = 0.0
+    grasp_attempts: int = 0
+    finger_gap: float = 0.0
+    target_radius: float = 0.0
+    slot: int = 0
+    contact_pairs: tuple[tuple[str, str], ...] = ()
 
 
-#: Tilt of a target's axis from the vertical beyond which it counts as knocked over [deg].
-TOPPLED_TILT_DEG = 30.0
+def plan_failure(exc: Exception) -> Outcome:
+    """The outcome of a cycle whose planning raised ``exc``: ``ik_failed`` for the user's IK,
+    ``no_path`` when every plan collides, ``unreachable`` otherwise."""
+    if isinstance(exc, IkFailedError):
+        return Outcome.IK_FAILED
+    if isinstance(exc, NoPathError):
+        return Outcome.NO_PATH
+    return Outcome.UNREACHABLE
+
+
+def bin_region(bin_box: BinBox) -> tuple[FloatArray, FloatArray]:
+    """The bin's inside as a box: its centre and half extents [m], each shape (3,)."""
+    centre = np.array([*bin_box.center, (bin_box.floor_top + bin_box.rim) / 2.0])
+    half = np.array([*bin_box.inner_half, (bin_box.rim - bin_box.floor_top) / 2.0])
+    return centre, half
+
+
+def in_region(
+    points: npt.ArrayLike, centre: npt.ArrayLike, half: npt.ArrayLike
+) -> npt.NDArray[np.bool_]:
+    """Whether each point lies strictly inside the box ``centre`` +- ``half``.
+
+    Args:
+        points: Shape (..., 3) [m].
+        centre: Box centres, shape (3,) or broadcastable to ``points`` [m].
+        half: Half extents, shape (3,) [m].
+    """
+    p = np.asarray(points, dtype=np.float64)
+    return np.all(np.abs(p - np.asarray(centre)) < np.asarray(half), axis=-1)
 
 
 def in_bin(position: npt.ArrayLike, bin_box: BinBox, margin: float = 0.0) -> bool:
@@ -103,16 +202,13 @@ def in_bin(position: npt.ArrayLike, bin_box: BinBox, margin: float = 0.0) -> boo
     )
 
 
-def at_rest_in_bin(position: npt.ArrayLike, rested_for: float, bin_box: BinBox) -> bool:
-    """The target's part of a success: its centre inside the bin (:func:`in_bin`) and still
-    (:func:`is_still`) for :data:`REST_WINDOW` [s] in a row.
-
-    Args:
-        position: Target centre [m], shape (3,).
-        rested_for: How long it has been still [s].
-        bin_box: The bin.
-    """
-    return in_bin(position, bin_box) and rested_for >= REST_WINDOW - 1e-9
+def _placed(
+    position: npt.ArrayLike, rested_for: npt.ArrayLike, centre: npt.ArrayLike, half: npt.ArrayLike
+) -> npt.NDArray[np.bool_]:
+    """The target's part of a success: its centre inside the region and still
+    (:func:`is_still`) for :data:`REST_WINDOW` in a row (vectorised over leading axes)."""
+    rested = np.asarray(rested_for, dtype=np.float64) >= REST_WINDOW - _TIME_SLACK
+    return in_region(position, centre, half) & rested
 
 
 def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
@@ -121,8 +217,8 @@ def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
     A cycle succeeds when the target rests inside the bin (centre inside the walls, below the
     rim, still (:func:`is_still`) for :data:`REST_WINDOW`) after the gripper opened, with no
     robot contact with the shelf or the bin. Otherwise the first failure in this order is
-    returned: unreachable, collision, knocked_over (no grip, target tipped over), grasp_missed,
-    dropped_in_transit, missed_bin.
+    returned: the plan's failure (unreachable, ik_failed, no_path), collision, knocked_over (no
+    grip, target tipped over), grasp_missed, dropped_in_transit, missed_bin.
 
     Args:
         obs: What happened.
@@ -131,14 +227,81 @@ def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
     Returns:
         The outcome.
     """
-    if not obs.planned:
-        return Outcome.UNREACHABLE
+    if obs.plan_failure is not None:
+        return obs.plan_failure
     if obs.robot_env_contacts > 0:
         return Outcome.COLLISION
     if not obs.grasp_confirmed:
-        return Outcome.KNOCKED_OVER if obs.target_toppled else Outcome.GRASP_MISSED
+        toppled = obs.target_tilt_deg > TOPPLED_TILT_DEG
+        return Outcome.KNOCKED_OVER if toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
-    if not at_rest_in_bin(obs.target_position, obs.rested_for, bin_box):
+    if not _placed(obs.target_position, obs.rested_for, *bin_region(bin_box)):
         return Outcome.MISSED_BIN
     return Outcome.SUCCESS
+
+
+def describe(outcome: Outcome, obs: CycleObservation, bin_box: BinBox) -> str:
+    """One sentence on why a cycle failed, from what was measured (empty on success)."""
+    p = np.round(obs.target_position, 3).tolist()
+    grip = (
+        f"grip not confirmed on attempt {obs.grasp_attempts}: finger gap "
+        f"{obs.finger_gap * 1000:.1f} mm, target diameter {2000 * obs.target_radius:.1f} mm"
+    )
+    if outcome is Outcome.SUCCESS:
+        return ""
+    if obs.plan_failure is not None:
+        return obs.plan_message or outcome.value
+    if outcome is Outcome.COLLISION:
+        pairs = ", ".join(f"{a}/{b}" for a, b in sorted(obs.contact_pairs)[:3])
+        return f"robot touched the cell for {obs.robot_env_contacts} ticks ({pairs})"
+    if outcome is Outcome.KNOCKED_OVER:
+        return (
+            f"the target was knocked over in slot {obs.slot} (axis {obs.target_tilt_deg:.0f} deg "
+            f"from vertical) on attempt {obs.grasp_attempts}; {grip}"
+        )
+    if outcome is Outcome.GRASP_MISSED:
+        return grip
+    if outcome is Outcome.DROPPED_IN_TRANSIT:
+        return f"the target left the fingers before the release; it lies at {p}"
+    if outcome is Outcome.MISSED_BIN:
+        where = "inside" if in_bin(obs.target_position, bin_box) else "outside"
+        return (
+            f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
+            f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
+        )
+    return outcome.value
+
+
+def judge(obs: CycleObservation, bin_box: BinBox) -> tuple[Outcome, str]:
+    """The outcome of a cycle (:func:`score`) and its detail sentence (:func:`describe`)."""
+    outcome = score(obs, bin_box)
+    return outcome, describe(outcome, obs, bin_box)
+
+
+def episode_success(
+    position: npt.ArrayLike,
+    rested_for: npt.ArrayLike,
+    released: npt.ArrayLike,
+    robot_env_contacts: npt.ArrayLike,
+    centre: npt.ArrayLike,
+    half: npt.ArrayLike,
+) -> npt.NDArray[np.bool_]:
+    """Whether a Gymnasium episode has succeeded, by the rule :func:`score` applies to a cycle.
+
+    The episode's policy, not a plan, moves the arm, so the plan and grasp stages do not apply;
+    the rest does, as in :func:`score`: no robot contact with the cell during the episode, the
+    fingers let go, the target's centre inside the goal region and still for
+    :data:`REST_WINDOW`. Vectorised over leading axes (a batch of relabelled goals).
+
+    Args:
+        position: Target centres, shape (..., 3) [m].
+        rested_for: How long each target has been still [s].
+        released: Whether the fingers no longer touch the target.
+        robot_env_contacts: Ticks with a robot-cell contact so far.
+        centre: Goal region centres, shape (3,) or (..., 3) [m] (:func:`bin_region` for the bin).
+        half: Half extents of the goal region, shape (3,) [m].
+    """
+    clean = np.asarray(robot_env_contacts) == 0
+    let_go = np.asarray(released, dtype=bool)
+    return clean & let_go & _placed(position, rested_for, centre, half)

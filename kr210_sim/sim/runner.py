@@ -11,7 +11,7 @@ import dataclasses
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -19,30 +19,24 @@ import numpy.typing as npt
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
-from kr210_sim.errors import (
-    ConfigError,
-    IkFailedError,
-    NoPathError,
-    PlanningError,
-    UnreachablePoseError,
-)
+from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.planner import Move, Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.metrics import gripper_tracking_error_mm
+from kr210_sim.score.result import CycleResult, Event, TargetSample
 from kr210_sim.score.scoring import (
     TOPPLED_TILT_DEG,
     CycleObservation,
     Outcome,
-    in_bin,
-    is_still,
-    rest_window_ticks,
-    score,
+    RestCounter,
+    judge,
+    plan_failure,
 )
 from kr210_sim.sim.cell import Cell, Recording, hold
-from kr210_sim.sim.targets import Event, TargetPool
+from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
 
@@ -100,81 +94,6 @@ class RunConfig:
             raise ConfigError(f"slot must be 0 (random) or a slot number, got {self.slot!r}")
         if self.grasp_attempts < 1:
             raise ConfigError(f"grasp_attempts must be >= 1, got {self.grasp_attempts!r}")
-
-
-@dataclass(frozen=True, slots=True)
-class TargetSample:
-    """One cycle's target: where it spawns and what it is.
-
-    Attributes:
-        slot: Slot number (1-based).
-        position: Spawn position of the centre [m].
-        yaw: Spawn yaw [rad].
-        spec: Size, mass and friction.
-    """
-
-    slot: int
-    position: tuple[float, float, float]
-    yaw: float
-    spec: TargetSpec
-
-
-@dataclass(frozen=True, slots=True)
-class CycleResult:
-    """What one cycle did and how it scored.
-
-    Attributes:
-        index: Cycle number (1-based).
-        slot: Slot 1-9.
-        success: True when the target rests in the bin.
-        reason: Failure reason (an :class:`Outcome` value), None on success.
-        detail: One sentence on what went wrong (empty on success).
-        cycle_time: Simulated time from the first move to the end of the return move [s].
-        max_tracking_error_deg: Largest |q_des - q| per joint over the cycle [deg].
-        max_gripper_tracking_error_mm: The joint tracking error seen at the gripper: largest
-            distance between gripper_link at the measured joints and at the commanded joints
-            (forward kinematics of both) [mm]. Not an IK error: the plan's poses are exact.
-        creep_mm: Largest displacement of the target relative to the gripper between the
-            confirmed grip and the release [mm].
-        grasp_attempts: Grasp attempts made.
-        env_contact_ticks: Control ticks with robot-shelf or robot-bin contact.
-        contact_pairs: Names of robot/environment geom pairs that touched.
-        target: The target's spawn sample.
-        target_final: The target's final centre [m].
-        phase_times: Simulated duration of each phase [s].
-        detours: Moves planned through via points to keep clear of the cell.
-        wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
-        planning_wall_time: Wall-clock time spent planning the cycle's moves, collision checks
-            and detours included [s] (excluded from determinism checks).
-        planning_cpu_time: CPU time of that planning [s] (on a loaded machine the wall time
-            also counts the waits for a core; excluded from determinism checks).
-    """
-
-    index: int
-    slot: int
-    success: bool
-    reason: str | None
-    detail: str
-    cycle_time: float
-    max_tracking_error_deg: tuple[float, ...]
-    max_gripper_tracking_error_mm: float
-    creep_mm: float
-    grasp_attempts: int
-    env_contact_ticks: int
-    contact_pairs: tuple[tuple[str, str], ...]
-    target: TargetSample
-    target_final: tuple[float, float, float]
-    phase_times: dict[str, float]
-    detours: int
-    wall_time: float
-    planning_wall_time: float
-    planning_cpu_time: float
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-ready dictionary."""
-        d = asdict(self)
-        d["target"]["spec"] = asdict(self.target.spec)
-        return d
 
 
 def sample_target(
@@ -354,12 +273,13 @@ class Runner:
         phases: dict[str, float] = {}
         self._hold(SPAWN_SETTLE, rec, "spawn", phases)
         t_start = cell.time
-        planned, confirmed, held, released, toppled = True, False, False, False, False
-        ik_failed = no_path = False
+        confirmed, held, released = False, False, False
+        failure: Outcome | None = None
+        failure_message = ""
+        tilt = gap = 0.0
         planning = planning_cpu = 0.0
         detours0 = self.planner.detours
         attempts = 0
-        detail = ""
         grip_ref: FloatArray | None = None
         i_grip = i_release = -1
         try:
@@ -380,12 +300,13 @@ class Runner:
                 self._track(plan.approach_lin, rec, phases)
                 confirmed = self._close(sample.spec.radius, rec, phases)
                 if not confirmed:
-                    detail = (
-                        f"grip not confirmed on attempt {attempts}: finger gap "
-                        f"{self.robot.finger_gap(cell.finger_q) * 1000:.1f} mm, target "
-                        f"diameter {2000 * sample.spec.radius:.1f} mm"
+                    gap = self.robot.finger_gap(cell.finger_q)
+                    log.info(
+                        "cycle %d: grip not confirmed on attempt %d (finger gap %.1f mm)",
+                        index,
+                        attempts,
+                        gap * 1000,
                     )
-                    log.info("cycle %d: %s", index, detail)
                     cell.open_gripper()
                     self._hold(0.3, rec, "grasp", phases)
                     back = self.planner.lin(
@@ -396,11 +317,6 @@ class Runner:
                     self._track(back, rec, phases)
                     tilt = self.target_tilt_deg(k)
                     if tilt > TOPPLED_TILT_DEG:  # no upright cylinder left to re-plan for
-                        toppled = True
-                        detail = (
-                            f"the target was knocked over in slot {slot} (axis {tilt:.0f} deg "
-                            f"from vertical) on attempt {attempts}; {detail}"
-                        )
                         break
                     continue
                 grip_ref = cell.target_in_gripper()
@@ -417,11 +333,8 @@ class Runner:
                 self._hold(cfg.motion.release_wait, rec, "release", phases)
             self._track(self.planner.plan_return(self.q_cmd), rec, phases)
         except (UnreachablePoseError, PlanningError) as exc:
-            planned = False  # scored "unreachable": no plan within the limits exists
-            ik_failed = isinstance(exc, IkFailedError)  # scored "ik_failed": the user's IK
-            no_path = isinstance(exc, NoPathError)  # scored "no_path": every plan collides
-            detail = str(exc)
-            log.info("cycle %d: %s", index, detail)
+            failure, failure_message = plan_failure(exc), str(exc)  # no plan: scored before moving
+            log.info("cycle %d: %s", index, failure_message)
             if self.q_cmd is not None and not np.allclose(self.q_cmd, self.planner.ready_q):
                 try:
                     self._track(self.planner.plan_return(self.q_cmd), rec, phases)
@@ -431,17 +344,17 @@ class Runner:
                 cell.open_gripper()
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
-        still = 0
-        window = rest_window_ticks(self.model.opt.timestep)
-
-        def at_rest(c: Cell) -> bool:
-            nonlocal still
-            still = still + 1 if is_still(c.target_speed(), c.target_spin()) else 0
-            return still >= window
-
-        self._hold(SETTLE_TIMEOUT, rec, "settle", phases, until=at_rest)
+        rest = RestCounter(self.model.opt.timestep)
+        self._hold(
+            SETTLE_TIMEOUT,
+            rec,
+            "settle",
+            phases,
+            until=lambda c: rest.update(c.target_speed(), c.target_spin()),
+        )
+        if not confirmed and tilt <= TOPPLED_TILT_DEG:  # it may have tipped after the last try
+            tilt = self.target_tilt_deg(k)
         obs = CycleObservation(
-            planned=planned,
             grasp_confirmed=confirmed,
             held_until_release=held,
             released=released,
@@ -449,21 +362,17 @@ class Runner:
             target_position=cell.target_pose(k)[0],
             target_speed=cell.target_speed(k),
             target_spin=cell.target_spin(k),
-            rested_for=still * float(self.model.opt.timestep),
-            target_toppled=toppled
-            or (not confirmed and self.target_tilt_deg(k) > TOPPLED_TILT_DEG),
+            rested_for=rest.rested_for,
+            plan_failure=failure,
+            plan_message=failure_message,
+            target_tilt_deg=0.0 if confirmed else tilt,
+            grasp_attempts=attempts,
+            finger_gap=gap,
+            target_radius=sample.spec.radius,
+            slot=slot,
+            contact_pairs=tuple(sorted(rec.contact_pairs)),
         )
-        outcome = (
-            Outcome.IK_FAILED
-            if ik_failed
-            else Outcome.NO_PATH
-            if no_path
-            else score(obs, self.layout.bin)
-        )
-        if outcome is Outcome.SUCCESS:
-            detail = ""
-        elif not detail:
-            detail = _describe(outcome, obs, rec, self.layout)
+        outcome, detail = judge(obs, self.layout.bin)
         result = self._summarise(
             index,
             sample,
@@ -482,8 +391,8 @@ class Runner:
         result = dataclasses.replace(
             result,
             detours=self.planner.detours - detours0,
-            planning_wall_time=planning,
-            planning_cpu_time=planning_cpu,
+            wall_planning_time=planning,
+            cpu_planning_time=planning_cpu,
         )
         self.results.append(result)
         if self.keep_recordings:
@@ -549,8 +458,8 @@ class Runner:
             phase_times={k: round(v, 6) for k, v in phases.items()},
             detours=0,
             wall_time=time.perf_counter() - wall0,
-            planning_wall_time=0.0,
-            planning_cpu_time=0.0,
+            wall_planning_time=0.0,
+            cpu_planning_time=0.0,
         )
 
     def idle(self, seconds: float, phase: str = "done") -> None:
@@ -563,24 +472,3 @@ class Runner:
         if self.config.slot:
             return self.config.slot
         return int(self.rng.integers(1, self.layout.n_slots + 1))
-
-
-def _describe(outcome: Outcome, obs: CycleObservation, rec: Recording, cell: CellLayout) -> str:
-    """One sentence on why a cycle failed."""
-    p = np.round(obs.target_position, 3).tolist()
-    if outcome is Outcome.COLLISION:
-        pairs = ", ".join(f"{a}/{b}" for a, b in sorted(rec.contact_pairs)[:3])
-        return f"robot touched the cell for {obs.robot_env_contacts} ticks ({pairs})"
-    if outcome is Outcome.KNOCKED_OVER:
-        return f"the grip failed and the target was left tipped over at {p}"
-    if outcome is Outcome.GRASP_MISSED:
-        return "the grip was never confirmed"
-    if outcome is Outcome.DROPPED_IN_TRANSIT:
-        return f"the target left the fingers before the release; it lies at {p}"
-    if outcome is Outcome.MISSED_BIN:
-        where = "inside" if in_bin(obs.target_position, cell.bin) else "outside"
-        return (
-            f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
-            f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
-        )
-    return outcome.value

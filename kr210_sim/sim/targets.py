@@ -11,56 +11,19 @@ shows; the cylinders never leave the bin unseen.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import BinBox, CellLayout
 from kr210_sim.cell.spec import TargetSpec
+from kr210_sim.score.result import Event, EventKind
 from kr210_sim.score.scoring import in_bin
 from kr210_sim.sim.cell import Cell
 
 import mujoco  # isort: skip
 
 FloatArray = npt.NDArray[np.float64]
-
-
-class EventKind(StrEnum):
-    """Things the cell does to its cylinders between cycles."""
-
-    BIN_EMPTIED = "bin_emptied"
-    SHELF_CLEARED = "shelf_cleared"
-
-
-@dataclass(frozen=True, slots=True)
-class Event:
-    """One thing done to the cylinders outside a pick-and-place cycle.
-
-    Attributes:
-        kind: What was done.
-        before_cycle: The cycle it happened before (1-based; cycles + 1 for after the last).
-        time: Simulated time [s].
-        targets: Indices of the cylinders moved.
-        detail: One sentence for the report and the video.
-    """
-
-    kind: EventKind
-    before_cycle: int
-    time: float
-    targets: tuple[int, ...]
-    detail: str
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-ready dictionary."""
-        return {
-            "kind": self.kind.value,
-            "before_cycle": self.before_cycle,
-            "time": round(self.time, 6),
-            "targets": list(self.targets),
-            "detail": self.detail,
-        }
 
 
 def set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetSpec) -> None:
