@@ -24,7 +24,7 @@ def _record(name: str, verdict: str, cycles: int | None, cases: int | None, wors
             "raised": 0,
             "returned_none": 0,
             "branch_changes": 0,
-            "time_per_call_s": 3e-4,
+            "wall_time_per_call_s": 3e-4,
         }
     run = None
     if cycles is not None:
@@ -79,7 +79,7 @@ def test_report_counts_verdicts_and_keeps_plots_out() -> None:
         "all_passed": False,
     }
     assert all("plots" not in s for s in report["students"])
-    assert report["interrupted_by"] is None and report["execution"] == {"workers": 2}
+    assert report["interrupted_by"] is None and report["wall_execution"] == {"workers": 2}
     json.dumps(report, allow_nan=False)
 
 

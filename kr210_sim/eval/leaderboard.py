@@ -74,7 +74,7 @@ def build_report(
             "all_passed": interrupted is None and counts["pass"] == len(records),
         },
         "students": ranked(records),
-        "execution": {"workers": workers},
+        "wall_execution": {"workers": workers},
         "interrupted_by": signal_name(interrupted) if interrupted is not None else None,
         "wall_time_s": wall_time,
         "versions": versions(),
@@ -163,7 +163,7 @@ def _section(r: dict[str, Any], plots: dict[str, str]) -> str:
             f"{_mm(ik['max_position_error_m'])} mm, worst orientation error "
             f"{_mm(ik['max_orientation_error_rad'])} mrad; {ik['outside_limits']} outside the "
             f"limits, {ik['raised']} raised, {ik['returned_none']} None; "
-            f"{1e6 * ik['time_per_call_s']:.0f} &micro;s per call</p>"
+            f"{1e6 * ik['wall_time_per_call_s']:.0f} &micro;s per call</p>"
         )
     for name, data in sorted(plots.items()):
         parts.append(f'<img alt="{e(name)}" src="data:image/png;base64,{data}">')

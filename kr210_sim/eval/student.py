@@ -29,7 +29,8 @@ from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop, die_with_parent
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.sim.runner import CycleResult, RunConfig, Runner
+from kr210_sim.score.result import CycleResult
+from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.outputs import write_json_atomic
 
 #: The verdicts, best first (the leaderboard's order).
@@ -94,7 +95,7 @@ def _ik_figures(records: list[dict[str, Any]]) -> dict[str, Any]:
         "raised": s["raised"],
         "returned_none": s["returned_none"],
         "branch_changes": s["branch_changes"],
-        "time_per_call_s": s["wall_time_s"]["per_call_mean"],
+        "wall_time_per_call_s": s["wall_time_s"]["per_call_mean"],
     }
 
 
@@ -197,7 +198,7 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     if runner is not None:
         record["run"] = run
         if runner.planner.user_ik is not None:
-            record["run"]["time_per_call_s"] = runner.planner.user_ik.stats.mean
+            record["run"]["wall_time_per_call_s"] = runner.planner.user_ik.stats.mean
     if stopped is not None:
         record["verdict"], record["detail"] = stopped.verdict, stopped.detail
     else:
