@@ -3,14 +3,27 @@
 A move is sampled at most 1 cm of gripper travel and 1 deg per joint apart; at each sample the
 arm (and the held target) are placed on a scratch :class:`mujoco.MjData` of a copy of the cell
 model, and MuJoCo's own collision detection (``mj_kinematics`` + ``mj_collision``) reports any
-contact between a robot collider (primitives and hulls) or the held target and a cell part
-(shelf, bin, obstacles, floor). The live simulation is never touched.
+contact. The live simulation is never touched. What counts as a collision:
+
+* **the cell**: a robot collider (primitives and hulls) or the held target closer than
+  :data:`CLEARANCE` to a cell part (shelf, bin, obstacles, floor). In the copy the cell's boxes
+  grow by that much on every face (MuJoCo's box-box collider ignores margins, and margins make
+  mesh pairs several times dearer); the floor becomes a slab that thick, and the bin's cage
+  meshes keep it as a margin. Measured with ``mj_geomDistance``, no accepted state comes
+  closer than 5.0 mm.
+* **the arm itself**: the wrist and gripper against the base, link 1 and link 2, the gripper
+  against link 3, and the held target against the base and links 1 to 4 (touching, no margin).
+  Adjacent links (parent and child) never count: MuJoCo filters them.
+* **the held target as held**: it is carried in the gripper's frame (its axis along the
+  gripper's z axis), so a tilted gripper tilts it; and while holding, the gripper's z axis must
+  stay within :data:`HOLD_TILT_DEG` of vertical, or the part would slip out of a real grip.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,10 +42,30 @@ FloatArray = npt.NDArray[np.float64]
 SAMPLE_TRAVEL = 0.01
 #: Largest joint move between two checked samples [rad].
 SAMPLE_ANGLE = math.radians(1.0)
-#: Clearance a robot collider must keep from the cell [m] (contacts closer than this count).
+#: Clearance a robot collider and the held target keep from the cell [m].
 CLEARANCE = 0.005
+#: Largest angle between the gripper's z axis and the vertical while holding [deg].
+HOLD_TILT_DEG = 30.0
+#: Half the extent of the floor slab that stands in for the floor plane [m].
+_FLOOR_HALF = 50.0
+#: Convergence tolerance of the convex collider in the copy [m] (MuJoCo's default is 1e-6).
+_CCD_TOLERANCE = 1e-4
 #: Time step of the dense pass that picks the checked samples [s].
 _DENSE_DT = 0.002
+
+#: Contact-filter bits of the copy: robot and held target against the cell, and three kinds
+#: of self-collision (movers' contype against the bodies' conaffinity).
+_CELL_BIT = 2
+_SELF = (
+    (
+        4,
+        ("link_4", "link_5", "link_6", "gripper_link", "*finger"),
+        ("base_link", "link_1", "link_2"),
+    ),
+    (8, ("gripper_link", "*finger"), ("link_3",)),
+)
+_HELD_BIT = 16
+_HELD_AGAINST = ("base_link", "link_1", "link_2", "link_3", "link_4")
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,18 +75,26 @@ class Hit:
     Attributes:
         sample: Index of the colliding sample.
         q: Joint state there [rad].
-        robot: Name of the robot collider (or the held target).
-        cell: Name of the cell part's geom.
+        robot: Name of the robot collider (or "the held target").
+        cell: Name of what it touches: a cell part's geom, another robot collider, or a
+            description of a broken constraint ("a tilt of 41 deg ...").
+        kind: "cell", "self" or "tilt".
     """
 
     sample: int
     q: FloatArray
     robot: str
     cell: str
+    kind: str = "cell"
 
     def describe(self) -> str:
         """``link_3_hull against obstacle_1 at q [...]``."""
-        return f"{self.robot} against {self.cell} at q {np.round(self.q, 3).tolist()}"
+        where = f"at q {np.round(self.q, 3).tolist()}"
+        if self.kind == "tilt":
+            return f"{self.robot} tilts {self.cell} {where}"
+        if self.kind == "self":
+            return f"{self.robot} against the arm's own {self.cell} {where}"
+        return f"{self.robot} against {self.cell} {where}"
 
 
 def check_samples(traj: Trajectory, kin: Kinematics) -> FloatArray:
@@ -85,12 +126,38 @@ def check_samples(traj: Trajectory, kin: Kinematics) -> FloatArray:
     return np.asarray(q[keep])
 
 
+def held_poses(T: FloatArray, offset: FloatArray) -> FloatArray:
+    """Free-joint poses (x, y, z, qw, qx, qy, qz) of a target held at ``offset`` [m] in the
+    gripper_link frame, its axis along the gripper's z axis, for gripper_link poses ``T``
+    (n, 4, 4)."""
+    out = np.empty((len(T), 7))
+    out[:, :3] = np.einsum("nij,j->ni", T[:, :3, :3], offset) + T[:, :3, 3]
+    for i, R in enumerate(T[:, :3, :3]):
+        mujoco.mju_mat2Quat(out[i, 3:], R.ravel())
+    return out
+
+
+def _inflate(m: mujoco.MjModel, geoms: list[int], by: float) -> None:
+    """Grow box geoms by ``by`` [m] on every face, with their bounding volumes."""
+    bodies = set()
+    for g in geoms:
+        m.geom_size[g] += by
+        m.geom_rbound[g] = float(np.linalg.norm(m.geom_size[g]))
+        m.geom_aabb[g, 3:] += by
+        bodies.add(int(m.geom_bodyid[g]))
+    for b in bodies:  # the midphase reads the body's bounding-volume tree
+        adr, n = int(m.body_bvhadr[b]), int(m.body_bvhnum[b])
+        if adr >= 0:
+            m.bvh_aabb[adr : adr + n, 3:] += by
+
+
 class CollisionChecker:
-    """Checks joint states of the arm, gripper open or holding a target, against the cell.
+    """Checks joint states of the arm, gripper open or holding a target, against the cell and
+    itself (see the module doc).
 
     Args:
-        model: The cell model (copied: the copy's floor is made to touch the hull colliders,
-            sleeping is off, cell geoms get a margin of :data:`CLEARANCE`).
+        model: The cell model (copied and changed: contact filter bits, margins, inflated box
+            colliders, sleeping off).
         kin: The kinematics of the arm in ``model`` (places a held target at the gripper).
     """
 
@@ -99,10 +166,8 @@ class CollisionChecker:
         m = copy.copy(model)
         m.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         self.model = m
-        self.data = mujoco.MjData(m)
         h = CellHandles.from_model(m)
         self.handles = h
-        mujoco.mj_resetDataKeyframe(m, self.data, 0)
         env = np.array(sorted(h.env_geoms))
         robot_bodies = {int(m.geom_bodyid[g]) for g in h.robot_geoms}
         self._is_robot = np.zeros(m.ngeom, dtype=bool)
@@ -111,40 +176,107 @@ class CollisionChecker:
                 self._is_robot[g] = True
         self._is_env = np.zeros(m.ngeom, dtype=bool)
         self._is_env[env] = True
-        # Only robot-cell and held target-cell pairs pass the contact filter: the robot's
-        # colliders (primitives and hulls) and the held target have contype 2 only, the cell's
-        # parts (the floor too) conaffinity 2 only, everything else neither. Spare targets are
-        # parked out of reach; target_0 stands in for the held one.
+        robot = np.flatnonzero(self._is_robot)
+        body_name = [m.body(int(m.geom_bodyid[g])).name for g in range(m.ngeom)]
+
+        def on(g: int, names: tuple[str, ...]) -> bool:
+            b = body_name[g]
+            return any(b == n or (n[0] == "*" and b.endswith(n[1:] + "_link")) for n in names)
+
+        # Only the pairs of the module doc pass the contact filter (the floor is a cell part).
+        # Spare targets are parked out of reach; target_0 stands in for the held one.
         m.geom_contype[:] = 0
         m.geom_conaffinity[:] = 0
-        m.geom_contype[self._is_robot] = 2
-        m.geom_conaffinity[env] = 2
-        m.geom_margin[env] = CLEARANCE
+        m.geom_contype[robot] = _CELL_BIT
+        m.geom_conaffinity[env] = _CELL_BIT
+        # Clearance: cell boxes grow by it, the other cell parts (floor, the bin's cage meshes)
+        # keep it as a margin (margins make mesh pairs dear, and MuJoCo's box-box collider
+        # ignores them).
+        m.geom_margin[:] = 0.0
+        m.geom_gap[:] = 0.0
+        kind = m.geom_type[env]
+        _inflate(m, [int(g) for g in env[kind == mujoco.mjtGeom.mjGEOM_BOX]], CLEARANCE)
+        m.geom_margin[env[kind != mujoco.mjtGeom.mjGEOM_BOX]] = CLEARANCE
+        for plane in env[kind == mujoco.mjtGeom.mjGEOM_PLANE]:  # a floor: a slab CLEARANCE thick
+            g = int(plane)
+            m.geom_type[g] = mujoco.mjtGeom.mjGEOM_BOX
+            m.geom_size[g] = (_FLOOR_HALF, _FLOOR_HALF, CLEARANCE)
+            m.geom_margin[g] = 0.0
+            m.geom_rbound[g] = float(np.linalg.norm(m.geom_size[g]))
+            m.geom_aabb[g] = (0.0, 0.0, 0.0, *m.geom_size[g])
+            b = int(m.geom_bodyid[g])
+            if m.body_bvhnum[b] == 1:  # the world's one volume: the plane's half space
+                m.bvh_aabb[m.body_bvhadr[b]] = m.geom_aabb[g]
+        m.opt.ccd_tolerance = _CCD_TOLERANCE
+        for bit, movers, against in _SELF:
+            for r in robot:
+                if on(int(r), movers):
+                    m.geom_contype[r] |= bit
+                if on(int(r), against):
+                    m.geom_conaffinity[r] |= bit
+        for r in robot:
+            if on(int(r), _HELD_AGAINST):
+                m.geom_conaffinity[r] |= _HELD_BIT
         self._held_geom = int(h.target_geoms[0])
         self._held_qpos = int(h.target_qpos[0])
+        self._held_type = _CELL_BIT | _HELD_BIT
         # the broadphase filters bodies by the union of their geoms' bits: recompute it
-        m.geom_contype[self._held_geom] = 2
+        m.geom_contype[self._held_geom] = self._held_type
         m.body_contype[:] = 0
         m.body_conaffinity[:] = 0
         for g in range(m.ngeom):
             m.body_contype[m.geom_bodyid[g]] |= m.geom_contype[g]
             m.body_conaffinity[m.geom_bodyid[g]] |= m.geom_conaffinity[g]
         m.geom_contype[self._held_geom] = 0
+        self.data = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, self.data, 0)
         self._finger_open = float(m.actuator_ctrlrange[h.grip_act, 0])
+        self._arm = slice(int(h.arm_qpos[0]), int(h.arm_qpos[-1]) + 1)
+        self._cos_tilt = math.cos(math.radians(HOLD_TILT_DEG))
+        self._offset: FloatArray | None = None
+        #: States checked so far.
         self.checks = 0
+        self.hold(None, None)
 
-    def _hold(self, target: TargetSpec | None, offset: FloatArray | None) -> None:
-        m, g = self.model, self._held_geom
+    def hold(
+        self,
+        target: TargetSpec | None,
+        offset: npt.ArrayLike | None,
+        finger_q: float | None = None,
+    ) -> None:
+        """Check the states that follow holding ``target`` at ``offset`` (its centre in the
+        gripper_link frame [m]), or nothing (None), with the fingers at ``finger_q`` [m]
+        (default: fully open)."""
+        m, g, d = self.model, self._held_geom, self.data
+        d.qpos[self.handles.finger_qpos] = self._finger_open if finger_q is None else finger_q
         if target is None or offset is None:
             m.geom_contype[g] = 0
+            self._offset = None
             return
-        m.geom_contype[g] = 2
-        m.geom_size[g, :2] = (target.radius, target.length / 2.0)
+        self._offset = np.asarray(offset, dtype=np.float64).reshape(3)
+        m.geom_contype[g] = self._held_type
         r, half = target.radius, target.length / 2.0
+        m.geom_size[g, :2] = (r, half)
         m.geom_rbound[g] = math.hypot(r, half)
         m.geom_aabb[g] = (0, 0, 0, r, r, half)
         # the broadphase reads the body's bounding box, a compiled copy of the geom's
         m.bvh_aabb[m.body_bvhadr[m.geom_bodyid[g]]] = (0, 0, 0, r, r, half)
+
+    def _contact(self, i: int, q: FloatArray) -> Hit | None:
+        m, d = self.model, self.data
+        if not d.ncon:
+            return None
+        g1, g2 = (int(g) for g in d.contact.geom[0])
+        if self._is_env[g1] or self._is_env[g2]:
+            mover, other = (g2, g1) if self._is_env[g1] else (g1, g2)
+            kind = "cell"
+        else:  # the arm against itself (named from the hand's end), or the held target
+            b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
+            held2 = g2 == self._held_geom
+            mover, other = (g2, g1) if held2 or (b2 > b1 and g1 != self._held_geom) else (g1, g2)
+            kind = "self"
+        name = "the held target" if mover == self._held_geom else m.geom(mover).name
+        return Hit(i, np.array(q, dtype=np.float64), name, m.geom(other).name, kind)
 
     def first_hit(
         self,
@@ -153,44 +285,72 @@ class CollisionChecker:
         offset: npt.ArrayLike | None = None,
         finger_q: float | None = None,
     ) -> Hit | None:
-        """The first of the joint states ``qs`` (n, 6) where the robot or the held target
-        touches the cell, or None.
+        """The first of the joint states ``qs`` (n, 6) that collides (see the module doc), or
+        None.
 
         Args:
             qs: Arm joint states [rad].
             target: The held target (None: nothing held).
-            offset: The held target's centre in the gripper_link frame [m] (upright).
+            offset: The held target's centre in the gripper_link frame [m].
             finger_q: Finger joint position [m] (default: fully open).
         """
-        m, d, h = self.model, self.data, self.handles
-        off = None if offset is None else np.asarray(offset, dtype=np.float64)
-        self._hold(target, off)
-        d.qpos[h.finger_qpos] = self._finger_open if finger_q is None else finger_q
+        self.hold(target, offset, finger_q)
+        return self.scan(qs)
+
+    def scan(self, qs: FloatArray) -> Hit | None:
+        """:meth:`first_hit` under the current :meth:`hold`."""
+        qs = np.asarray(qs, dtype=np.float64).reshape(-1, 6)
+        m, d = self.model, self.data
         a = self._held_qpos
-        held_pose = None
-        if off is not None:  # upright at the offset, turned with the gripper's heading
-            T = self.kin.forward(np.asarray(qs))
-            yaw = np.arctan2(T[:, 1, 0], T[:, 0, 0])
-            held_pose = np.column_stack(
-                [
-                    np.einsum("nij,j->ni", T[:, :3, :3], off) + T[:, :3, 3],
-                    np.cos(yaw / 2),
-                    np.zeros((len(yaw), 2)),
-                    np.sin(yaw / 2),
-                ]
-            )
-        arm_qpos = slice(int(h.arm_qpos[0]), int(h.arm_qpos[-1]) + 1)
+        held, up = None, None
+        if self._offset is not None:
+            T = self.kin.forward(qs)
+            held, up = held_poses(T, self._offset), T[:, 2, 2]
+            tilted = np.flatnonzero(up < self._cos_tilt)
+            last = int(tilted[0]) if len(tilted) else len(qs)
+        else:
+            last = len(qs)
         kin, collide = mujoco.mj_kinematics, mujoco.mj_collision
-        for i, q in enumerate(qs):
-            d.qpos[arm_qpos] = q
-            if held_pose is not None:
-                d.qpos[a : a + 7] = held_pose[i]
+        for i in range(last):
+            d.qpos[self._arm] = qs[i]
+            if held is not None:
+                d.qpos[a : a + 7] = held[i]
             kin(m, d)
             collide(m, d)
             self.checks += 1
-            if d.ncon:  # only robot-cell and held-cell pairs pass the filter
-                g1, g2 = (int(g) for g in d.contact.geom[0])
-                mover, other = (g2, g1) if self._is_env[g1] else (g1, g2)
-                name = "the held target" if mover == self._held_geom else m.geom(mover).name
-                return Hit(i, np.array(q, dtype=np.float64), name, m.geom(other).name)
+            hit = self._contact(i, qs[i])
+            if hit is not None:
+                return hit
+        if up is not None and last < len(qs):
+            tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(up[last])))))
+            return Hit(
+                last,
+                qs[last].copy(),
+                "the held target",
+                f"{tilt:.1f} deg from upright (most {HOLD_TILT_DEG:.0f})",
+                "tilt",
+            )
         return None
+
+    def state_validity(self) -> Callable[[FloatArray], bool]:
+        """A function ``valid(q) -> bool`` for one joint state [rad], under the current
+        :meth:`hold` (what a sampling planner calls)."""
+        m, d, a, arm = self.model, self.data, self._held_qpos, self._arm
+        off, cos_tilt = self._offset, self._cos_tilt
+        kin, collide = mujoco.mj_kinematics, mujoco.mj_collision
+        forward = self.kin.forward
+
+        def valid(q: FloatArray) -> bool:
+            self.checks += 1
+            d.qpos[arm] = q
+            if off is not None:
+                T = forward(q)
+                if T[2, 2] < cos_tilt:
+                    return False
+                d.qpos[a : a + 3] = T[:3, :3] @ off + T[:3, 3]
+                mujoco.mju_mat2Quat(d.qpos[a + 3 : a + 7], T[:3, :3].ravel())
+            kin(m, d)
+            collide(m, d)
+            return d.ncon == 0
+
+        return valid

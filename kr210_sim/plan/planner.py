@@ -134,6 +134,40 @@ def radial_yaw(position: npt.ArrayLike) -> float:
     return math.atan2(p[1], p[0])
 
 
+#: Largest |q4| and |q6| of an untwisted wrist [rad].
+UNTWISTED = math.pi / 2
+
+
+def untwisted_nearest(kin: Kinematics, T: FloatArray, q_ref: FloatArray) -> FloatArray:
+    """The IK solution for ``T`` whose wrist is untwisted (|q4| and |q6| below 90 deg) nearest
+    ``q_ref`` (weighed as :meth:`Kinematics.nearest` weighs), else ``kin.nearest``'s.
+
+    A level gripper reached with the wrist turned half a turn (q6 = +-pi, the arm over its head)
+    points the fingers up halfway through a move from a level pose: a held part would fall.
+
+    Raises:
+        UnreachablePoseError: When no solution lies inside the limits.
+    """
+    g = kin.geometry
+    ref = np.asarray(q_ref, dtype=np.float64)
+    best, best_cost = None, math.inf
+    for sol in kin.inverse(T):
+        q = sol.copy()
+        k = np.round((ref[0] - q[0]) / (2 * math.pi))
+        for twin in q[0] + 2 * math.pi * (k + np.arange(-1, 2)):
+            if g.lower[0] <= twin <= g.upper[0] and abs(twin - ref[0]) < abs(q[0] - ref[0]):
+                q[0] = twin
+        q[3], q[5] = math.remainder(q[3], 2 * math.pi), math.remainder(q[5], 2 * math.pi)
+        if abs(q[3]) > UNTWISTED or abs(q[5]) > UNTWISTED:
+            continue
+        if np.any(q < g.lower) or np.any(q > g.upper):
+            continue
+        cost = float(np.sum(((q - ref) / g.v_max) ** 2))
+        if cost < best_cost:
+            best, best_cost = q, cost
+    return best if best is not None else kin.nearest(T, ref)
+
+
 class Planner:
     """Plans the moves of a cycle with closed-form IK and ruckig.
 
@@ -260,11 +294,16 @@ class Planner:
         )
         return Move(phase, "lin", traj)
 
-    def solve(self, T: FloatArray, q_ref: FloatArray, what: str) -> FloatArray:
-        """IK for ``T`` nearest ``q_ref``, with the pose named in the error message."""
+    def solve(
+        self, T: FloatArray, q_ref: FloatArray, what: str, untwisted: bool = False
+    ) -> FloatArray:
+        """IK for ``T`` nearest ``q_ref``, with the pose named in the error message
+        (``untwisted``: preferring an untwisted wrist, :func:`untwisted_nearest`)."""
         if self.user_ik is not None:
             return self.user_ik.solve(T, q_ref, f"{what} pose")
         try:
+            if untwisted:
+                return untwisted_nearest(self.kinematics, T, q_ref)
             return self.kinematics.nearest(T, q_ref)
         except UnreachablePoseError as exc:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
@@ -345,7 +384,7 @@ class Planner:
     ) -> Move:
         """Joint-space move from ``q_start`` to release the target above ``drop_xy`` [m]
         (checked with the target held, detoured if it must be)."""
-        q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop")
+        q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop", True)
         held = TargetSpec(radius=target_radius, length=target_length)
         return self.checked(self.ptp("carry", q_start, q_drop), held)
 

@@ -137,6 +137,11 @@ class PtpTrajectory(Trajectory):
         self._goal = q_goal.copy()
         self._zero = np.zeros(6)
 
+    @property
+    def profile(self) -> ruckig.Trajectory:
+        """The ruckig profile."""
+        return self._profile
+
     def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         if t <= 0.0:
             return self._start.copy(), self._zero.copy(), self._zero.copy()

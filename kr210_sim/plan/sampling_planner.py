@@ -1,0 +1,239 @@
+"""Sampling-based motion planning with OMPL (the library MoveIt plans with).
+
+The state space is the six arm joints within their limits; a state is valid when
+:class:`~kr210_sim.plan.collide.CollisionChecker` finds no collision there (the cell with its
+clearance, the arm itself, the held part as held and upright). RRTConnect finds a path, which is
+then shortened (rope shortcuts, vertex reduction) within a time budget.
+
+**Checking resolution.** Joint j moves the gripper's farthest point by at most ``r_j * |dq_j|``,
+``r_j`` the sum of the link lengths from joint j's axis to the fingertips (the lever arm, from
+the model). The space is a compound of one-joint subspaces weighted ``w_j = max(r_j, 1 cm / 1
+deg)``, so its distance is the weighted L1 sum ``sum_j w_j |dq_j|`` [m], and OMPL checks motions
+every 1 cm of that distance: no two checked states are more than 1 cm of gripper travel or 1 deg
+per joint apart.
+
+**Determinism.** Each plan seeds OMPL's random generator (``ompl.util.RNG``) from the run's
+seed and the plan's own start and goal, so a plan does not depend on what was planned before it
+(any number of evaluation workers gives the same plans). Simplification runs a fixed number of
+rounds; the time budget only cuts it short on a machine far slower than expected.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from kr210_sim.errors import NoPathError
+from kr210_sim.plan.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker
+
+import mujoco  # isort: skip
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Checking step of the search, in the weighted distance [m] (the result is checked again at
+#: 1 cm).
+COARSE_STEP = 0.04
+#: Longest RRTConnect search [s].
+SOLVE_TIME = 1.0
+#: Time budget of the path simplification [s].
+SIMPLIFY_TIME = 0.15
+#: Rounds of simplification (each: rope shortcut, vertex reduction, close-vertex collapse).
+SIMPLIFY_ROUNDS = 3
+
+ou.setLogLevel(ou.LogLevel.LOG_WARN)
+
+
+@dataclass(frozen=True, slots=True)
+class SampledPath:
+    """A collision-free joint path found by OMPL.
+
+    Attributes:
+        waypoints: Joint states [rad], shape (k, 6), start and goal included; the straight
+            joint-space segments between them are collision-free at the checking resolution.
+        planning_s: Wall time of search and simplification [s].
+        checks: Validity checks made.
+        length: Length of the path in the weighted metric (an upper bound of the gripper's
+            travel) [m].
+    """
+
+    waypoints: FloatArray
+    planning_s: float
+    checks: int
+    length: float
+
+
+def lever_arms(model: mujoco.MjModel) -> FloatArray:
+    """Upper bound of each arm joint's distance to any point of the hand [m], shape (6,).
+
+    The chain of joint anchors, the gripper_link origin and the farthest finger geom (centre
+    distance plus bounding radius) of a cell model, at its reference pose.
+    """
+    d = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, d)
+    anchors = [d.xanchor[model.joint(f"joint_{i}").id].copy() for i in range(1, 7)]
+    grip = model.body("gripper_link").id
+    anchors.append(d.xpos[grip].copy())
+    hand = 0.0
+    for g in range(model.ngeom):
+        b = int(model.geom_bodyid[g])
+        if b == grip or model.body_parentid[b] == grip:
+            far = float(np.linalg.norm(d.geom_xpos[g] - d.xpos[grip])) + model.geom_rbound[g]
+            hand = max(hand, far)
+    links = np.linalg.norm(np.diff(np.array(anchors), axis=0), axis=1)
+    return np.array([links[j:].sum() + hand for j in range(6)])
+
+
+def plan_seed(run_seed: int, q_start: FloatArray, q_goal: FloatArray, held: bool) -> int:
+    """OMPL seed of one plan: from the run's seed and the plan's ends (never 0)."""
+    h = hashlib.sha256()
+    h.update(int(run_seed).to_bytes(8, "little", signed=True))
+    h.update(np.round(np.asarray(q_start, dtype=np.float64), 9).tobytes())
+    h.update(np.round(np.asarray(q_goal, dtype=np.float64), 9).tobytes())
+    h.update(b"held" if held else b"free")
+    return int.from_bytes(h.digest()[:4], "little") | 1
+
+
+def _seed(n: int) -> None:
+    """Seed OMPL; it logs an error when reseeded after its first use, which is what we want."""
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    ou.RNG.setSeed(n)
+    ou.setLogLevel(ou.LogLevel.LOG_WARN)
+
+
+class SamplingPlanner:
+    """RRTConnect in the arm's joint space against a collision checker.
+
+    Args:
+        checker: The validity check (its :meth:`~CollisionChecker.hold` state is used).
+        lower: Lower joint limits [rad], shape (6,).
+        upper: Upper joint limits [rad], shape (6,).
+        seed: The run's seed.
+    """
+
+    def __init__(
+        self,
+        checker: CollisionChecker,
+        lower: npt.ArrayLike,
+        upper: npt.ArrayLike,
+        seed: int = 0,
+    ) -> None:
+        self.checker = checker
+        self.lower = np.asarray(lower, dtype=np.float64)
+        self.upper = np.asarray(upper, dtype=np.float64)
+        self.seed = seed
+        self.weights = np.maximum(lever_arms(checker.model), SAMPLE_TRAVEL / SAMPLE_ANGLE)
+
+    def _space(self) -> ob.CompoundStateSpace:
+        space = ob.CompoundStateSpace()
+        for lo, hi, w in zip(self.lower, self.upper, self.weights, strict=True):
+            sub = ob.RealVectorStateSpace(1)
+            bounds = ob.RealVectorBounds(1)
+            bounds.setLow(0, float(lo))
+            bounds.setHigh(0, float(hi))
+            sub.setBounds(bounds)
+            space.addSubspace(sub, float(w))
+        return space
+
+    def distance(self, a: npt.ArrayLike, b: npt.ArrayLike) -> float:
+        """The space's distance (weighted L1, an upper bound of gripper travel) [m]."""
+        return float(np.sum(self.weights * np.abs(np.asarray(b) - np.asarray(a))))
+
+    def plan(
+        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool = False
+    ) -> SampledPath:
+        """A collision-free path from ``q_start`` to ``q_goal`` [rad].
+
+        Searched at :data:`COARSE_STEP`, the result's segments checked again every
+        :data:`~kr210_sim.plan.collide.SAMPLE_TRAVEL`; when that finds a collision the search is
+        made again at the fine step.
+
+        Args:
+            q_start: Start joint state [rad].
+            q_goal: Goal joint state [rad].
+            held: Whether a part is held (only for the seed: set it on the checker).
+
+        Raises:
+            NoPathError: When an end collides, or RRTConnect finds no path in
+                :data:`SOLVE_TIME`.
+        """
+        t0 = time.perf_counter()
+        checks0 = self.checker.checks
+        path = self._plan(q_start, q_goal, held, COARSE_STEP)
+        if not self._segments_clear(path.waypoints):
+            path = self._plan(q_start, q_goal, held, SAMPLE_TRAVEL)
+        return SampledPath(
+            path.waypoints, time.perf_counter() - t0, self.checker.checks - checks0, path.length
+        )
+
+    def _segments_clear(self, way: FloatArray) -> bool:
+        """Whether the straight segments between ``way``'s states are clear, checked every
+        :data:`~kr210_sim.plan.collide.SAMPLE_TRAVEL` of the weighted distance."""
+        for a, b in itertools.pairwise(way):
+            n = max(1, math.ceil(self.distance(a, b) / SAMPLE_TRAVEL))
+            qs = a + np.linspace(0.0, 1.0, n + 1)[:, None] * (b - a)
+            if self.checker.scan(qs[1:-1]) is not None:
+                return False
+        return True
+
+    def _plan(
+        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool, step: float
+    ) -> SampledPath:
+        """One search at checking ``step`` [m] (see :meth:`plan`)."""
+        t0 = time.perf_counter()
+        qs = np.asarray(q_start, dtype=np.float64).reshape(6)
+        qg = np.asarray(q_goal, dtype=np.float64).reshape(6)
+        checks0 = self.checker.checks
+        valid = self.checker.state_validity()
+        for what, q in (("start", qs), ("goal", qg)):
+            if not valid(q):
+                hit = self.checker.scan(q[None])
+                blocked = hit.describe() if hit is not None else "it is outside the limits"
+                raise NoPathError(f"the {what} of the move collides: {blocked}")
+        _seed(plan_seed(self.seed, qs, qg, held))
+        space = self._space()
+        ss = og.SimpleSetup(space)
+        buf = np.empty(6)
+
+        def is_valid(state: ob.State) -> bool:
+            for j in range(6):
+                buf[j] = state[j][0]
+            return valid(buf)
+
+        ss.setStateValidityChecker(is_valid)
+        si = ss.getSpaceInformation()
+        si.setStateValidityCheckingResolution(step / space.getMaximumExtent())
+        start, goal = space.allocState(), space.allocState()
+        for j in range(6):
+            start[j][0] = float(qs[j])
+            goal[j][0] = float(qg[j])
+        ss.setStartAndGoalStates(start, goal)
+        ss.setPlanner(og.RRTConnect(si))
+        ss.solve(SOLVE_TIME)
+        if not ss.haveExactSolutionPath():
+            raise NoPathError(
+                f"OMPL's RRTConnect found no collision-free path in {SOLVE_TIME:.1f} s "
+                f"({self.checker.checks - checks0} states checked)"
+            )
+        path = ss.getSolutionPath()
+        simplifier = og.PathSimplifier(si)
+        t_end = time.perf_counter() + SIMPLIFY_TIME
+        for _ in range(SIMPLIFY_ROUNDS):
+            changed = simplifier.ropeShortcutPath(path)
+            changed |= simplifier.reduceVertices(path, 0, 0, 0.33)
+            changed |= simplifier.collapseCloseVertices(path)
+            if not changed or time.perf_counter() > t_end:
+                break
+        n = path.getStateCount()
+        way = np.array([[path.getState(i)[j][0] for j in range(6)] for i in range(n)])
+        way[0], way[-1] = qs, qg
+        length = sum(self.distance(a, b) for a, b in itertools.pairwise(way))
+        return SampledPath(way, time.perf_counter() - t0, self.checker.checks - checks0, length)

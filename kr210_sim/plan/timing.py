@@ -1,0 +1,191 @@
+"""Timing a planned joint path through its waypoints without stopping at each one, and the
+lower bounds a move's duration is measured against.
+
+A path from the sampling planner is a list of joint states joined by straight segments. It is
+timed as ruckig state-to-state segments chained at the waypoints with *non-zero* velocities
+there (jerk-limited, time-synchronised; ruckig's own waypoint input is a cloud service and is
+never used). The velocity at an interior waypoint is, joint by joint, the slower of the average
+speeds of the two segments it joins when they move that joint the same way, else zero. Ruckig's
+path between two waypoints bends away from the straight segment, so the caller checks the timed
+samples again (``accept``); when they collide the waypoint velocities are halved, down to
+rest-to-rest segments, whose phase-synchronised profiles follow the straight segments exactly.
+
+Bounds: a rest-to-rest move cannot be faster than its slowest joint alone at the velocity and
+acceleration limits (:func:`rest_to_rest_bound`); a timed path cannot be faster than the
+time-optimal parametrisation of the same geometric path under those limits (:func:`path_bound`,
+by toppra).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+import ruckig
+
+from kr210_sim.errors import PlanningError
+from kr210_sim.plan.trajectory import LIMIT_TOL, JointLimits, Trajectory, plan_ptp
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Times the waypoint velocities are halved before the path is timed rest to rest.
+BLEND_TRIES = 3
+#: Share of the velocity limit a waypoint velocity may use.
+WAYPOINT_SPEED = 0.9
+#: Samples of a path that toppra parametrises for the bound.
+BOUND_SAMPLES = 60
+
+
+def joint_min_time(distance: FloatArray, v_max: FloatArray, a_max: FloatArray) -> FloatArray:
+    """Shortest rest-to-rest time of each joint alone over ``distance`` [rad] with velocity
+    and acceleration limits (no jerk limit) [s]."""
+    d = np.abs(np.asarray(distance, dtype=np.float64))
+    triangle = d < v_max * v_max / a_max
+    return np.where(triangle, 2.0 * np.sqrt(d / a_max), d / v_max + v_max / a_max)
+
+
+def rest_to_rest_bound(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: JointLimits) -> float:
+    """Lower bound of a rest-to-rest joint move's duration: its slowest joint alone [s]."""
+    d = np.asarray(q_goal, dtype=np.float64) - np.asarray(q_start, dtype=np.float64)
+    return float(joint_min_time(d, limits.v_max, limits.a_max).max(initial=0.0))
+
+
+def path_bound(q: npt.ArrayLike, limits: JointLimits) -> float:
+    """Time-optimal duration of the geometric path through the joint states ``q`` (n, 6)
+    [rad] at the velocity and acceleration limits, from rest to rest (toppra) [s]."""
+    import toppra as ta
+
+    qs = np.asarray(q, dtype=np.float64)
+    step = np.linalg.norm(np.diff(qs, axis=0), axis=1)
+    keep = np.concatenate([[True], step > 1e-9])
+    qs = qs[keep]
+    if len(qs) < 2:
+        return 0.0
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(qs, axis=0), axis=1))])
+    path = ta.SplineInterpolator(s / s[-1], qs)
+    v = ta.constraint.JointVelocityConstraint(np.column_stack([-limits.v_max, limits.v_max]))
+    a = ta.constraint.JointAccelerationConstraint(np.column_stack([-limits.a_max, limits.a_max]))
+    grid = np.linspace(0.0, 1.0, 2 * BOUND_SAMPLES + 1)
+    algo = ta.algorithm.TOPPRA([v, a], path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
+    traj = algo.compute_trajectory(0, 0)
+    if traj is None:
+        raise PlanningError("toppra found no parametrisation of the path")
+    return float(traj.duration)
+
+
+class BlendedTrajectory(Trajectory):
+    """Ruckig segments chained at waypoints, each starting in the state the previous ends in.
+
+    Args:
+        profiles: The segments' ruckig trajectories.
+        q_start: The first segment's start [rad].
+        q_goal: The last segment's end [rad].
+    """
+
+    def __init__(self, profiles: list[ruckig.Trajectory], q_start: FloatArray, q_goal: FloatArray):
+        self.profiles = profiles
+        durations = [float(p.duration) for p in profiles]
+        self.starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
+        self.duration = float(sum(durations))
+        self._start = np.asarray(q_start, dtype=np.float64).copy()
+        self._goal = np.asarray(q_goal, dtype=np.float64).copy()
+
+    def sample(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        z = np.zeros(6)
+        if t <= 0.0:
+            return self._start.copy(), z, z.copy()
+        if t >= self.duration:
+            return self._goal.copy(), z, z.copy()
+        i = max(int(np.searchsorted(self.starts, t, side="right")) - 1, 0)
+        p = self.profiles[i]
+        q, qd, qdd = p.at_time(min(t - float(self.starts[i]), float(p.duration)))[:3]
+        return np.array(q), np.array(qd), np.array(qdd)
+
+
+def waypoint_velocities(way: FloatArray, limits: JointLimits, scale: float) -> FloatArray:
+    """Joint velocities at the waypoints ``way`` (k, 6) [rad/s] (see the module doc), times
+    ``scale``; zero at both ends."""
+    d = np.diff(way, axis=0)  # (k - 1, 6)
+    durations = np.array([rest_to_rest_bound(np.zeros(6), x, limits) for x in d])
+    avg = d / np.maximum(durations, 1e-9)[:, None]
+    v = np.zeros_like(way)
+    same = np.sign(d[:-1]) * np.sign(d[1:]) > 0
+    slower = np.minimum(np.abs(avg[:-1]), np.abs(avg[1:])) * np.sign(d[1:])
+    v[1:-1] = np.where(same, slower, 0.0) * scale
+    return np.clip(v, -WAYPOINT_SPEED * limits.v_max, WAYPOINT_SPEED * limits.v_max)
+
+
+def _segment(
+    q0: FloatArray, v0: FloatArray, q1: FloatArray, v1: FloatArray, limits: JointLimits
+) -> ruckig.Trajectory:
+    inp = ruckig.InputParameter(6)
+    inp.current_position, inp.current_velocity = q0.tolist(), v0.tolist()
+    inp.current_acceleration = [0.0] * 6
+    inp.target_position, inp.target_velocity = q1.tolist(), v1.tolist()
+    inp.target_acceleration = [0.0] * 6
+    inp.max_velocity = limits.v_max.tolist()
+    inp.max_acceleration = limits.a_max.tolist()
+    inp.max_jerk = limits.j_max.tolist()
+    inp.synchronization = ruckig.Synchronization.Time
+    profile = ruckig.Trajectory(6)
+    result = ruckig.Ruckig(6).calculate(inp, profile)
+    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+        raise PlanningError(f"ruckig found no segment profile ({result})")
+    for j, ext in enumerate(profile.position_extrema):
+        if ext.min < limits.lower[j] - LIMIT_TOL or ext.max > limits.upper[j] + LIMIT_TOL:
+            raise PlanningError(f"segment of joint_{j + 1} overshoots its position limits")
+    return profile
+
+
+def blend(way: FloatArray, limits: JointLimits, scale: float = 1.0) -> Trajectory:
+    """The path through the waypoints ``way`` (k, 6) [rad] timed with waypoint velocities at
+    ``scale`` (0: rest to rest, phase-synchronised, along the straight segments).
+
+    Raises:
+        PlanningError: When a segment leaves the position limits or ruckig finds no profile.
+    """
+    way = np.asarray(way, dtype=np.float64)
+    if scale <= 0.0 or len(way) == 2:
+        segments = [plan_ptp(a, b, limits) for a, b in itertools.pairwise(way)]
+        if len(segments) == 1:
+            return segments[0]
+        return BlendedTrajectory([s.profile for s in segments], way[0], way[-1])
+    v = waypoint_velocities(way, limits, scale)
+    profiles = [_segment(way[i], v[i], way[i + 1], v[i + 1], limits) for i in range(len(way) - 1)]
+    return BlendedTrajectory(profiles, way[0], way[-1])
+
+
+def time_path(
+    way: npt.ArrayLike,
+    limits: JointLimits,
+    accept: Callable[[Trajectory], bool],
+) -> tuple[Trajectory, float]:
+    """Time the path through ``way`` (k, 6) [rad] as fast as ``accept`` allows.
+
+    Args:
+        way: Waypoints [rad], the first and last at rest.
+        limits: Joint limits.
+        accept: Checks a timed candidate (its samples against the cell).
+
+    Returns:
+        The trajectory and the waypoint-velocity scale it was timed with (0: rest to rest).
+
+    Raises:
+        PlanningError: When even the rest-to-rest timing is not accepted.
+    """
+    w = np.asarray(way, dtype=np.float64)
+    scale = 1.0
+    for _ in range(BLEND_TRIES):
+        try:
+            traj = blend(w, limits, scale)
+        except PlanningError:
+            traj = None
+        if traj is not None and accept(traj):
+            return traj, scale
+        scale /= 2.0
+    traj = blend(w, limits, 0.0)
+    if not accept(traj):
+        raise PlanningError("the planned path, timed rest to rest, is not accepted")
+    return traj, 0.0

@@ -1,0 +1,86 @@
+"""OMPL in the loop: paths around a column, checked at 1 cm / 1 deg, seeded, blocked ends."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from kr210_sim.cell.load import model_for
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.cell.toml import PUBLISHED_CELL
+from kr210_sim.errors import NoPathError
+from kr210_sim.plan.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.sampling_planner import SamplingPlanner, lever_arms, plan_seed
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import committed
+
+SLOT = np.array([2.6, 0.0, 1.681])  # the middle slot, behind the column from the ready pose
+
+
+@pytest.fixture(scope="module")
+def column() -> tuple[Planner, SamplingPlanner]:
+    robot = load_robot()
+    checker = CollisionChecker(model_for(cell=PUBLISHED_CELL.parent / "column.toml"), committed())
+    return (
+        Planner(robot, MotionConfig(), None, checker),
+        SamplingPlanner(checker, robot.q_lower, robot.q_upper, seed=3),
+    )
+
+
+def test_a_weighted_step_of_1_cm_moves_the_fingertips_at_most_1_cm_and_1_deg() -> None:
+    robot = load_robot()
+    checker = CollisionChecker(model_for(cell=PUBLISHED_CELL), committed())
+    sampler = SamplingPlanner(checker, robot.q_lower, robot.q_upper)
+    assert lever_arms(checker.model)[0] > 3.0  # the whole arm turns about joint 1
+    rng = np.random.default_rng(0)
+    tip = np.array([robot.lip_x, 0.0, 0.0, 1.0])
+    worst_travel, worst_angle = 0.0, 0.0
+    for _ in range(2000):
+        a = rng.uniform(robot.q_lower, robot.q_upper)
+        step = rng.normal(size=6) * rng.uniform(0, 1, 6) ** 4
+        b = a + step * SAMPLE_TRAVEL / sampler.distance(a, a + step)
+        p = kinematics.forward(np.array([a, b])) @ tip
+        worst_travel = max(worst_travel, float(np.linalg.norm(p[1, :3] - p[0, :3])))
+        worst_angle = max(worst_angle, float(np.abs(b - a).max()))
+    assert worst_travel <= SAMPLE_TRAVEL and worst_angle <= SAMPLE_ANGLE * (1 + 1e-9)
+    assert worst_travel > 0.3 * SAMPLE_TRAVEL  # the bound is not absurdly loose
+
+
+def test_rrtconnect_goes_around_the_column_and_is_seeded(
+    column: tuple[Planner, SamplingPlanner],
+) -> None:
+    planner, sampler = column
+    ready = planner.ready_q
+    goal = planner.solve(planner.grasp_poses(SLOT, 0.05)[0], ready, "standoff")
+    checker = sampler.checker
+    checker.hold(None, None)
+    direct = ready + np.linspace(0, 1, 200)[:, None] * (goal - ready)
+    assert checker.scan(direct) is not None  # the straight joint move strikes the column
+    path = sampler.plan(ready, goal)
+    way = path.waypoints
+    assert len(way) >= 3 and np.allclose(way[0], ready) and np.allclose(way[-1], goal)
+    assert path.checks > 100 and path.planning_s > 0
+    for a, b in itertools.pairwise(way):  # every segment clear at 1 cm
+        n = math.ceil(sampler.distance(a, b) / SAMPLE_TRAVEL)
+        assert checker.scan(a + np.linspace(0, 1, n + 1)[:, None] * (b - a)) is None
+    again = sampler.plan(ready, goal)
+    assert np.array_equal(again.waypoints, way)  # the same seed, the same path
+    assert plan_seed(3, ready, goal, False) != plan_seed(4, ready, goal, False)
+
+
+def test_a_goal_inside_the_column_is_no_path_with_what_blocks(
+    column: tuple[Planner, SamplingPlanner],
+) -> None:
+    planner, sampler = column
+    ready = planner.ready_q
+    T = np.eye(4)
+    T[:3, 3] = (1.8, 1.0, 1.5)  # the column's centre
+    goal = kinematics.nearest(T, ready)
+    sampler.checker.hold(None, None)
+    with pytest.raises(NoPathError, match=r"the goal of the move collides: .* against obstacle_1"):
+        sampler.plan(ready, goal)
