@@ -8,14 +8,16 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.errors import PlanningError
 from kr210_sim.plan.timing import (
     blend,
+    check_limits,
     joint_min_time,
     path_bound,
     rest_to_rest_bound,
     time_path,
 )
-from kr210_sim.plan.trajectory import JointLimits, Trajectory, check_trajectory, plan_ptp
+from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp
 from kr210_sim.robot.description import load_robot
 
 WAY = np.array(
@@ -60,11 +62,17 @@ def test_blended_path_passes_its_waypoints_without_stopping(limits: JointLimits)
         if i > 0:
             assert np.abs(qd).max() > 0.05  # moving through the waypoint
     assert np.allclose(traj.q_end, WAY[-1])
-    stats = check_trajectory(traj, limits)
-    assert stats.velocity_ratio <= 1.0 + 1e-6 and stats.acceleration_ratio <= 1.0 + 1e-6
+    v, a = check_limits(traj, limits)
+    assert 0.5 < v <= 1.0 + 1e-6 and 0.5 < a <= 1.0 + 1e-6
     qs = traj.sample_many(np.linspace(0, traj.duration, 200))[0]
     bound = path_bound(qs, limits)
     assert 0.5 * traj.duration < bound <= traj.duration
+
+
+def test_the_limit_check_catches_a_too_fast_path(limits: JointLimits) -> None:
+    slow = JointLimits(limits.lower, limits.upper, limits.v_max / 2, limits.a_max, limits.j_max)
+    with pytest.raises(PlanningError, match="of the velocity limit"):
+        check_limits(blend(WAY, limits), slow)
 
 
 def test_a_rejected_blend_falls_back_to_the_straight_segments(limits: JointLimits) -> None:

@@ -26,7 +26,8 @@ import numpy.typing as npt
 import ruckig
 
 from kr210_sim.errors import PlanningError
-from kr210_sim.plan.trajectory import LIMIT_TOL, JointLimits, Trajectory, plan_ptp
+from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp
+from kr210_sim.robot.kinematics import LIMIT_SLACK
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -34,6 +35,10 @@ FloatArray = npt.NDArray[np.float64]
 BLEND_TRIES = 3
 #: Share of the velocity limit a waypoint velocity may use.
 WAYPOINT_SPEED = 0.9
+#: Sample step of the limit check [s].
+LIMIT_DT = 0.002
+#: Slack on the velocity and acceleration limits in the check (ruckig's own rounding).
+RATE_SLACK = 1e-6
 #: Samples of a path that toppra parametrises for the bound.
 BOUND_SAMPLES = 60
 
@@ -134,7 +139,7 @@ def _segment(
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"ruckig found no segment profile ({result})")
     for j, ext in enumerate(profile.position_extrema):
-        if ext.min < limits.lower[j] - LIMIT_TOL or ext.max > limits.upper[j] + LIMIT_TOL:
+        if ext.min < limits.lower[j] - LIMIT_SLACK or ext.max > limits.upper[j] + LIMIT_SLACK:
             raise PlanningError(f"segment of joint_{j + 1} overshoots its position limits")
     return profile
 
@@ -155,6 +160,28 @@ def blend(way: FloatArray, limits: JointLimits, scale: float = 1.0) -> Trajector
     v = waypoint_velocities(way, limits, scale)
     profiles = [_segment(way[i], v[i], way[i + 1], v[i + 1], limits) for i in range(len(way) - 1)]
     return BlendedTrajectory(profiles, way[0], way[-1])
+
+
+def check_limits(traj: Trajectory, limits: JointLimits) -> tuple[float, float]:
+    """Check ``traj``'s samples every :data:`LIMIT_DT` against the position, velocity and
+    acceleration limits.
+
+    Returns:
+        The largest |qd| / v_max and |qdd| / a_max over joints and samples.
+
+    Raises:
+        PlanningError: When a sample breaks a limit.
+    """
+    ts = np.append(np.arange(0.0, traj.duration, LIMIT_DT), traj.duration)
+    q, qd, qdd = traj.sample_many(ts)
+    limits.check_position(q, "timed path")
+    v = float((np.abs(qd) / limits.v_max).max())
+    a = float((np.abs(qdd) / limits.a_max).max())
+    if v > 1.0 + RATE_SLACK or a > 1.0 + RATE_SLACK:
+        raise PlanningError(
+            f"timed path: {v:.3f} of the velocity limit, {a:.3f} of the acceleration limit"
+        )
+    return v, a
 
 
 def time_path(
