@@ -602,10 +602,10 @@ def run_meta(
     video: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The metadata of a run's recording: settings, model identity, report summary and events."""
-    from kr210_sim import __version__
+    from kr210_sim.util.versions import package_version
 
     meta: dict[str, Any] = {
-        "kr210_sim": __version__,
+        "kr210_sim": package_version(),
         "model_sha256": identity,
         "scene": str(Path(scene).resolve()) if scene is not None else None,
         "run": {"seed": config.seed, "slot": config.slot, "randomize": config.randomize},

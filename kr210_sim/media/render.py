@@ -69,17 +69,17 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
         RenderError: When no OpenGL backend can be started.
     """
     check_frame_size(width, height)
-    import kr210_sim
+    from kr210_sim.util import gl as backend
 
     gl = os.environ.get("MUJOCO_GL", "unset")
-    if kr210_sim.GL_IMPORT_ERROR is not None:
-        raise RenderError(GL_HELP.format(gl=gl) + f" [{kr210_sim.GL_IMPORT_ERROR}]")
+    if backend.GL_IMPORT_ERROR is not None:
+        raise RenderError(GL_HELP.format(gl=gl) + f" [{backend.GL_IMPORT_ERROR}]")
     glob = model.vis.global_
     glob.offwidth, glob.offheight = max(glob.offwidth, width), max(glob.offheight, height)
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:
-        if kr210_sim.GL_CHOSEN_LATE:
+        if backend.GL_CHOSEN_LATE:
             raise RenderError(
                 "mujoco was imported before kr210_sim, so it did not see MUJOCO_GL=egl: "
                 "import kr210_sim first, or set MUJOCO_GL=egl in the environment"

@@ -1,4 +1,5 @@
-"""The KR210 robot description, read from the URDF with yourdfpy.
+"""The KR210 robot description, read from the URDF (the standard library's XML parser: the run
+path loads no mesh library).
 
 The URDF is the single source of truth for the arm's geometry and limits: kinematics, planning
 and the scene builder all read their constants from :func:`load_robot`, never from literals.
@@ -6,7 +7,6 @@ and the scene builder all read their constants from :func:`load_robot`, never fr
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -200,15 +200,75 @@ def _geometry(
     )
 
 
-def _finger_boxes(urdf: object, link_name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+def _numbers(path: Path, element: ElementTree.Element | None, key: str, n: int) -> FloatArray:
+    """The ``n`` numbers of attribute ``key`` of ``element`` (zeros when either is missing)."""
+    text = element.get(key) if element is not None else None
+    if text is None:
+        return np.zeros(n)
+    try:
+        values = np.array([float(v) for v in text.split()], dtype=np.float64)
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (n,) or not np.all(np.isfinite(values)):
+        raise SceneError(f"malformed URDF {path}: {key}={text!r} is not {n} numbers")
+    return values
+
+
+def _origin(path: Path, element: ElementTree.Element | None) -> FloatArray:
+    """The 4x4 transform of an URDF ``<origin xyz rpy>`` (identity when absent)."""
+    xyz, (r, p, y) = _numbers(path, element, "xyz", 3), _numbers(path, element, "rpy", 3)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    T = np.eye(4)
+    T[:3, :3] = [  # Rz(y) Ry(p) Rx(r)
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+    T[:3, 3] = xyz
+    return T
+
+
+def _limit(path: Path, element: ElementTree.Element | None, key: str) -> float:
+    return float(_numbers(path, element, key, 1)[0]) if element is not None else 0.0
+
+
+def _joint(path: Path, j: ElementTree.Element) -> JointInfo:
+    """One ``<joint>``: its origin, axis (URDF's default x for a moving joint without one) and
+    limits (0 where not given)."""
+    parent, child, axis = j.find("parent"), j.find("child"), j.find("axis")
+    if not j.get("name") or parent is None or child is None:
+        raise SceneError(f"malformed URDF {path}: a joint lacks its name, parent or child")
+    if axis is not None:
+        axis_xyz = _numbers(path, axis, "xyz", 3)
+    else:
+        axis_xyz = np.zeros(3) if j.get("type") == "fixed" else np.array([1.0, 0.0, 0.0])
+    limit = j.find("limit")
+    return JointInfo(
+        name=str(j.get("name")),
+        parent=str(parent.get("link")),
+        child=str(child.get("link")),
+        origin=_origin(path, j.find("origin")),
+        axis=axis_xyz,
+        lower=_limit(path, limit, "lower"),
+        upper=_limit(path, limit, "upper"),
+        velocity=_limit(path, limit, "velocity"),
+        effort=_limit(path, limit, "effort"),
+    )
+
+
+def _finger_boxes(
+    path: Path, robot: ElementTree.Element, link_name: str
+) -> list[tuple[FloatArray, FloatArray]]:
     """(origin xyz, box size) of the finger's collision boxes in [m]: the pad, then the lip."""
-    link = urdf.link_map[link_name]  # type: ignore[attr-defined]
     boxes = []
-    for collision in link.collisions:
-        box = collision.geometry.box
-        if box is not None:
-            origin = collision.origin if collision.origin is not None else np.eye(4)
-            boxes.append((np.asarray(origin)[:3, 3], np.asarray(box.size, dtype=np.float64)))
+    for link in robot.iter("link"):
+        if link.get("name") != link_name:
+            continue
+        for collision in link.iter("collision"):
+            box = collision.find("geometry/box")
+            if box is not None:
+                xyz = _origin(path, collision.find("origin"))[:3, 3]
+                boxes.append((xyz, _numbers(path, box, "size", 3)))
     if len(boxes) != 2:
         raise SceneError(
             f"{link_name} needs two collision boxes in the URDF (pad, fingertip lip), "
@@ -230,46 +290,25 @@ def load_robot(urdf_path: Path | str = URDF_PATH) -> RobotDescription:
     Raises:
         SceneError: When the file is missing, malformed or lacks a joint this package needs.
     """
-    import yourdfpy
-
     path = Path(urdf_path)
     if not path.is_file():
         raise SceneError(f"URDF not found: {path} (regenerate or restore assets/kr210/kr210.urdf)")
-    try:  # yourdfpy's own messages on bad XML are vague: check well-formedness first
-        ElementTree.parse(path)
+    try:
+        robot = ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
         raise SceneError(f"malformed URDF {path}: {exc}") from exc
-    yourdfpy_log = logging.getLogger("yourdfpy")
-    level = yourdfpy_log.level
-    yourdfpy_log.setLevel(logging.CRITICAL)  # it logs before raising; we raise one clear line
-    try:
-        urdf = yourdfpy.URDF.load(
-            str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False
-        )
-    except Exception as exc:  # yourdfpy raises many kinds on bad URDF content
-        raise SceneError(f"malformed URDF {path}: {type(exc).__name__}: {exc}") from exc
-    finally:
-        yourdfpy_log.setLevel(level)
+    if robot.tag != "robot":
+        raise SceneError(f"malformed URDF {path}: the root element is <{robot.tag}>, not <robot>")
     joints: dict[str, JointInfo] = {}
-    for j in urdf.robot.joints:
-        limit = j.limit
-        joints[j.name] = JointInfo(
-            name=j.name,
-            parent=j.parent,
-            child=j.child,
-            origin=np.array(j.origin if j.origin is not None else np.eye(4), dtype=np.float64),
-            axis=np.array(j.axis if j.axis is not None else np.zeros(3), dtype=np.float64),
-            lower=float(limit.lower) if limit is not None and limit.lower is not None else 0.0,
-            upper=float(limit.upper) if limit is not None and limit.upper is not None else 0.0,
-            velocity=float(limit.velocity) if limit is not None and limit.velocity else 0.0,
-            effort=float(limit.effort) if limit is not None and limit.effort else 0.0,
-        )
+    for element in robot.findall("joint"):
+        joint = _joint(path, element)
+        joints[joint.name] = joint
     missing = [n for n in (*ARM_JOINTS, *FINGER_JOINTS, "gripper_joint") if n not in joints]
     if missing:
         raise SceneError(f"URDF {path} lacks joints {missing}; found {sorted(joints)}")
     arm = [joints[n] for n in ARM_JOINTS]
     right = joints[FINGER_JOINTS[0]]
-    (pad_xyz, pad_size), (lip_xyz, lip_size) = _finger_boxes(urdf, right.child)
+    (pad_xyz, pad_size), (lip_xyz, lip_size) = _finger_boxes(path, robot, right.child)
     gap0 = 2.0 * (abs(float(right.origin[1, 3])) - float(pad_size[1]) / 2.0)
     finger_x = float(right.origin[0, 3])
     return RobotDescription(
