@@ -70,7 +70,8 @@ def stick_out(model: mujoco.MjModel, with_hulls: bool = True) -> dict[str, float
         colliders = [
             g
             for g in geoms
-            if model.geom_contype[g] != 0 and (with_hulls or model.geom_contype[g] == 1)
+            if model.geom_contype[g] != 0
+            and (with_hulls or model.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH)
         ]
         if not visuals or not colliders:
             continue

@@ -15,17 +15,8 @@ Named elements the runtime reads (:mod:`kr210_sim.cell.layout`): bodies ``shelf`
 ``drop_<n>``; custom text ``cell_name``, ``cell_sha256`` and numerics ``randomize_*``; robot
 hull colliders ``<link>_hull`` (class ``hull``).
 
-Choices (see also the README in ``assets/kr210``):
-
-* Gravity is compensated on the arm bodies (``gravcomp=1``, routed through the actuators with
-  ``actuatorgravcomp`` so it counts against the drive limits); the drive limits are the URDF
-  ``effort`` values, which we raised to KR210-class kN m figures.
-* Each arm joint has a position servo with ~8 Hz bandwidth: ``kp = I (2 pi f)^2`` and critical
-  damping ``kv = 2 I (2 pi f)``, with ``I`` the joint's inertia (mass-matrix diagonal plus
-  armature) at the home pose. The control loop adds velocity and acceleration feed-forward
-  through the same actuator (see :mod:`kr210_sim.sim.cell`).
-* Fingers are coupled by a joint equality and driven by one position actuator on the right
-  finger whose force range caps the grip force.
+The robot's part (classes, drives, gripper, colliders, the contact filter bits) is
+:mod:`kr210_sim.cell.robot_model`; see also the README in ``assets/kr210``.
 """
 
 from __future__ import annotations
@@ -38,6 +29,20 @@ import numpy.typing as npt
 
 from kr210_sim.cell import dressing
 from kr210_sim.cell.handles import ENV_PARTS, target_name
+from kr210_sim.cell.robot_model import (
+    CELL_AFFINITY,
+    CELL_BIT,
+    FLOOR_AFFINITY,
+    GRASP_SOLIMP,
+    GRASP_SOLREF,
+    TARGET_AFFINITY,
+    TARGET_BIT,
+    add_actuators,
+    add_draw_meshes,
+    add_hulls,
+    configure_robot,
+    look_at,
+)
 from kr210_sim.cell.spec import (
     SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
@@ -47,29 +52,12 @@ from kr210_sim.cell.spec import (
     ShelfSpec,
 )
 from kr210_sim.errors import ConfigError, SceneError
-from kr210_sim.robot.description import ARM_JOINTS, ARM_LINKS, FINGER_JOINTS
+from kr210_sim.robot.description import ARM_JOINTS
 from kr210_sim.util.outputs import check_folder, write_bytes_atomic
 from kr210_sim.util.paths import MESH_DIR, SCENE_PATH, SCENES_DIR, URDF_PATH
 
 import mujoco  # isort: skip  (after kr210_sim so MUJOCO_GL is chosen first)
 
-#: Servo bandwidth of the arm joints in [Hz].
-SERVO_HZ = 8.0
-#: Reflected motor inertia added to each arm joint in [kg m^2].
-ARMATURE = (8.0, 8.0, 4.0, 0.8, 0.8, 0.4)
-#: Viscous joint damping of each arm joint in [N m s/rad].
-JOINT_DAMPING = (5.0, 5.0, 3.0, 0.5, 0.5, 0.2)
-#: Largest squeeze force of each finger in [N] (the tendon actuator's limit is twice this).
-GRIP_FORCE = 40.0
-#: Finger servo stiffness in [N/m] and damping in [N s/m] (on the tendon, whose force splits
-#: half to each finger); the damping limits the closing speed to about
-#: 2 GRIP_FORCE / FINGER_KV = 0.2 m/s, the URDF finger velocity limit.
-FINGER_KP = 8000.0
-FINGER_KV = 400.0
-#: Contact parameters of fingers and targets (friction grasp).
-GRASP_SOLREF = (0.004, 1.0)
-GRASP_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
-FINGER_FRICTION = (1.5, 0.01, 0.0001)
 #: Friction of the bin floor (a rubber mat): sliding, torsional [m], rolling [m]. Its rolling
 #: resistance (condim 6, and a higher priority than the targets', so its parameters apply: its
 #: contact stiffness is therefore the targets' too, GRASP_SOLREF) lets a
@@ -86,31 +74,6 @@ TARGET_RGBA = (0.1, 0.35, 0.95, 1.0)
 SHELF_RGBA = (0.55, 0.42, 0.3, 1.0)
 BIN_RGBA = (0.3, 0.32, 0.36, 1.0)
 OBSTACLE_RGBA = (0.85, 0.75, 0.2, 1.0)
-
-#: Pairs of robot bodies that must never be checked for contact (beyond parent/child).
-_EXCLUDES = (
-    ("base_link", "link_2"),
-    ("link_1", "link_3"),
-    ("link_3", "link_5"),
-    ("link_4", "link_6"),
-    ("link_4", "gripper_link"),
-    ("link_5", "gripper_link"),
-    ("link_5", "right_gripper_finger_link"),
-    ("link_5", "left_gripper_finger_link"),
-    ("link_6", "right_gripper_finger_link"),
-    ("link_6", "left_gripper_finger_link"),
-    ("right_gripper_finger_link", "left_gripper_finger_link"),
-)
-
-
-def _look_at(pos: npt.ArrayLike, target: npt.ArrayLike) -> tuple[float, ...]:
-    """Camera ``xyaxes`` for a camera at ``pos`` [m] looking at ``target`` [m], z up."""
-    p, t = np.asarray(pos, float), np.asarray(target, float)
-    fwd = (t - p) / np.linalg.norm(t - p)
-    right = np.cross(fwd, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    return (*right.round(6).tolist(), *up.round(6).tolist())
 
 
 def _box(
@@ -130,142 +93,12 @@ def _box(
     )
     geom.classname = cls
     # a class set after creation does not reapply its defaults
-    geom.conaffinity, geom.group = cls.geom.conaffinity, cls.geom.group
+    geom.contype, geom.conaffinity, geom.group = (
+        cls.geom.contype,
+        cls.geom.conaffinity,
+        cls.geom.group,
+    )
     return geom
-
-
-def _add_hulls(body: mujoco.MjsBody, hull: mujoco.MjsDefault) -> None:
-    """One collider per visual mesh of ``body``: the mesh itself, whose convex hull MuJoCo
-    collides with, so it encloses every visual vertex whatever the meshes look like.
-
-    Hulls are in class ``hull`` (contype 2, conaffinity 0): they touch only geoms with bit 2 in
-    their conaffinity, the cell's parts (class ``static``), never the targets, the other links
-    or the primitive colliders, so the grasp's contacts stay those of the fingers' pads and lips.
-    """
-    for geom in list(body.geoms):
-        if geom.type != mujoco.mjtGeom.mjGEOM_MESH or geom.contype != 0:
-            continue
-        h = body.add_geom(
-            name=geom.name.replace("_visual", "_hull"),
-            type=mujoco.mjtGeom.mjGEOM_MESH,
-            meshname=geom.meshname,
-            pos=list(geom.pos),
-            quat=list(geom.quat),
-        )
-        h.classname = hull
-        h.contype, h.conaffinity, h.group, h.density = 2, 0, 3, 0.0
-
-
-def _configure_robot(
-    spec: mujoco.MjSpec,
-    visual: mujoco.MjsDefault,
-    collision: mujoco.MjsDefault,
-) -> None:
-    """Classes, gravity compensation, armature, damping, sites and camera for the URDF robot."""
-    for body_name in (*ARM_LINKS[1:], *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
-        body = spec.body(body_name)
-        if body is None:
-            raise SceneError(f"URDF import lost body {body_name!r}; check the compiler block")
-        body.gravcomp = 1.0
-    for body_name in (*ARM_LINKS, *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
-        body = spec.body(body_name)
-        for i, geom in enumerate(list(body.geoms)):
-            if geom.contype == 0:  # URDF <visual>: the importer already made it non-colliding
-                geom.classname = visual
-                geom.contype, geom.conaffinity, geom.group = 0, 0, 2
-                geom.name = f"{body_name}_visual" if i == 0 else f"{body_name}_visual{i}"
-            else:
-                geom.classname = collision
-                geom.contype, geom.conaffinity, geom.group = 1, 1, 3
-                geom.name = f"{body_name}_collision{i}"
-    for name, armature, damping in zip(ARM_JOINTS, ARMATURE, JOINT_DAMPING, strict=True):
-        joint = spec.joint(name)
-        joint.armature = armature
-        joint.damping = [damping, 0.0, 0.0]
-        joint.actgravcomp = True
-    for name in FINGER_JOINTS:
-        joint = spec.joint(name)
-        joint.armature = 0.01
-        joint.damping = [1.0, 0.0, 0.0]
-        joint.actgravcomp = True
-    for finger in ("right_gripper_finger_link", "left_gripper_finger_link"):
-        boxes = [
-            g
-            for g in spec.body(finger).geoms
-            if g.type == mujoco.mjtGeom.mjGEOM_BOX and g.contype != 0
-        ]
-        if len(boxes) != 2:
-            raise SceneError(f"{finger} needs two collision boxes (pad, lip), found {len(boxes)}")
-        for geom, part in zip(boxes, ("pad", "lip"), strict=True):
-            geom.name = f"{finger.split('_')[0]}_finger_{part}"
-            geom.condim = 4
-            geom.friction = list(FINGER_FRICTION)
-            geom.solref = list(GRASP_SOLREF)
-            geom.solimp = list(GRASP_SOLIMP)
-    gripper = spec.body("gripper_link")
-    gripper.add_site(name="tcp", pos=[0, 0, 0], size=[0.01, 0, 0], rgba=[1, 0, 0, 0.5], group=4)
-    gripper.add_site(
-        name="gripper", pos=[0.15, 0, 0], size=[0.01, 0, 0], rgba=[0, 1, 0, 0.5], group=4
-    )
-    gripper.add_camera(
-        name="gripper",
-        pos=[-0.08, 0.0, 0.16],
-        xyaxes=list(_look_at([-0.08, 0.0, 0.16], [0.35, 0.0, 0.0])),
-        fovy=70,
-    )
-    for a, b in _EXCLUDES:
-        spec.add_exclude(bodyname1=a, bodyname2=b)
-    spec.add_equality(
-        type=mujoco.mjtEq.mjEQ_JOINT,
-        name="finger_coupling",
-        name1=FINGER_JOINTS[1],
-        name2=FINGER_JOINTS[0],
-        data=[0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
-        solref=[0.005, 1.0],
-    )
-
-
-def _add_actuators(spec: mujoco.MjSpec, inertia: npt.NDArray[np.float64]) -> None:
-    """Position servos for the arm (gains from ``inertia`` [kg m^2]) and one for the fingers."""
-    omega = 2.0 * math.pi * SERVO_HZ
-    for name, inertia_i in zip(ARM_JOINTS, inertia, strict=True):
-        kp = float(inertia_i * omega**2)
-        kv = float(2.0 * inertia_i * omega)
-        effort = spec.joint(name).actfrcrange[1]
-        act = spec.add_actuator(
-            name=name,
-            target=name,
-            trntype=mujoco.mjtTrn.mjTRN_JOINT,
-            gaintype=mujoco.mjtGain.mjGAIN_FIXED,
-            biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-            forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            forcerange=[-effort, effort],
-        )
-        act.gainprm[0] = kp
-        act.biasprm[1] = -kp
-        act.biasprm[2] = -kv
-    # One actuator on a fixed tendon (the mean of the two finger joints): its force splits
-    # equally between the fingers, so they close symmetrically (an actuator on one finger with
-    # the other dragged along by the equality pushes the target sideways before the second
-    # finger arrives).
-    fingers = spec.add_tendon(name="fingers")
-    for name in FINGER_JOINTS:
-        fingers.wrap_joint(name, 0.5)
-    lo, hi = spec.joint(FINGER_JOINTS[0]).range
-    grip = spec.add_actuator(
-        name="gripper",
-        target="fingers",
-        trntype=mujoco.mjtTrn.mjTRN_TENDON,
-        gaintype=mujoco.mjtGain.mjGAIN_FIXED,
-        biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-        forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        forcerange=[-2.0 * GRIP_FORCE, 2.0 * GRIP_FORCE],
-        ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        ctrlrange=[lo, hi],
-    )
-    grip.gainprm[0] = FINGER_KP
-    grip.biasprm[1] = -FINGER_KP
-    grip.biasprm[2] = -FINGER_KV
 
 
 def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault) -> None:
@@ -276,27 +109,27 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )
     floor.classname = static
-    # Not bit 2: hull/plane tests cost about a fifth of the step rate; the primitive colliders
-    # still touch the floor (and the planner checks the hulls against it, kinematically).
-    floor.conaffinity = 1
+    # Not the hulls: hull/plane tests cost about a fifth of the step rate; the primitive
+    # colliders still touch the floor (and the planner checks the hulls against it).
+    floor.contype, floor.conaffinity = CELL_BIT, FLOOR_AFFINITY
     # The whole cell, from high enough to look over the bin cage's rim into it.
     overview_pos, overview_at = (-1.6, -2.2, 3.4), (1.35, 1.0, 0.95)
     world.add_camera(
         name="overview",
         pos=list(overview_pos),
-        xyaxes=list(_look_at(overview_pos, overview_at)),
+        xyaxes=list(look_at(overview_pos, overview_at)),
         fovy=56,
     )
     shelf_at = (*cell.shelf.to_world((-cell.shelf.depth / 2.0 + 0.1, 0.0, 0.0))[:2], 1.6)
     shelf_pos = (0.5, -1.6, 2.3)
     world.add_camera(
-        name="shelf", pos=list(shelf_pos), xyaxes=list(_look_at(shelf_pos, shelf_at)), fovy=62
+        name="shelf", pos=list(shelf_pos), xyaxes=list(look_at(shelf_pos, shelf_at)), fovy=62
     )
     bin_x, bin_y = cell.bin.position
     # Steep enough (about 70 deg down) to see the bin's floor over its 1 m walls.
     bin_pos = (bin_x - 0.55, bin_y + 0.75, 3.3)
     world.add_camera(
-        name="bin", pos=list(bin_pos), xyaxes=list(_look_at(bin_pos, (bin_x, bin_y, 0.1))), fovy=45
+        name="bin", pos=list(bin_pos), xyaxes=list(look_at(bin_pos, (bin_x, bin_y, 0.1))), fovy=45
     )
     # Three-quarter view of the middle slot (slot 5 of the published cell): the wrist, the
     # gripper and the grasp large.
@@ -304,7 +137,7 @@ def _add_world(spec: mujoco.MjSpec, cell: CellConfig, static: mujoco.MjsDefault)
     hero_at = (slot[0] - 0.3, slot[1] + 0.05, slot[2] - 0.08)
     hero_pos = (slot[0] - 0.95, slot[1] - 1.0, slot[2] + 0.45)
     world.add_camera(
-        name="hero", pos=list(hero_pos), xyaxes=list(_look_at(hero_pos, hero_at)), fovy=45
+        name="hero", pos=list(hero_pos), xyaxes=list(look_at(hero_pos, hero_at)), fovy=45
     )
 
 
@@ -463,6 +296,8 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
             size=[t.radius, t.length / 2.0, 0],
             mass=t.mass,
             rgba=list(TARGET_RGBA),
+            contype=TARGET_BIT,
+            conaffinity=TARGET_AFFINITY,
             condim=4,
             friction=[t.friction, 0.01, 0.0001],
             priority=1,
@@ -594,21 +429,20 @@ def build_spec(
     collision = spec.add_default("collision", spec.default)
     collision.geom.group = 3
     hull = spec.add_default("hull", spec.default)
-    hull.geom.contype, hull.geom.conaffinity, hull.geom.group = 2, 0, 3
+    hull.geom.contype, hull.geom.conaffinity, hull.geom.group = 0, 0, 3  # set per geom
     static = spec.add_default("static", spec.default)
     static.geom.group = 0
-    static.geom.conaffinity = 3  # bit 2: the robot's hull colliders touch the cell's parts
+    static.geom.contype, static.geom.conaffinity = CELL_BIT, CELL_AFFINITY
 
-    _configure_robot(spec, visual, collision)
+    configure_robot(spec, visual, collision)
     _add_world(spec, cell, static)
     _add_shelf(spec, cell.shelf, static)
     _add_bin(spec, cell.bin, static)
     _add_obstacles(spec, cell.obstacles, static)
     _add_targets(spec, cell)
     _dress(spec, cell, visual, mesh_dir)
-    # Hulls after the dressing: every visual mesh part of a link (each finish) gets its own.
-    for body_name in (*ARM_LINKS, *(j.replace("_joint", "_link") for j in FINGER_JOINTS)):
-        _add_hulls(spec.body(body_name), hull)
+    add_hulls(spec, hull)  # one per finish of each link's mesh
+    add_draw_meshes(spec)
     _add_cell_sites(spec, cell)
     _add_cell_info(spec, cell)
     _add_contact_sensors(spec, bool(cell.obstacles))
@@ -622,7 +456,7 @@ def build_spec(
     dof = [model.jnt_dofadr[model.joint(n).id] for n in ARM_JOINTS]
     full = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, full)
-    _add_actuators(spec, np.array([full[i, i] for i in dof]))
+    add_actuators(spec, np.array([full[i, i] for i in dof]))
     try:
         model = spec.compile()
     except Exception as exc:

@@ -8,6 +8,7 @@ what to install.
 
 from __future__ import annotations
 
+import copy
 import os
 from pathlib import Path
 
@@ -85,6 +86,49 @@ def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rend
                 "import kr210_sim first, or set MUJOCO_GL=egl in the environment"
             ) from exc
         raise RenderError(GL_HELP.format(gl=gl) + f" [{type(exc).__name__}: {exc}]") from exc
+
+
+#: Suffix of the robot's ``draw`` level mesh assets (:mod:`kr210_sim.cell.robot_model` writes
+#: them; the runtime does not import the builder).
+DRAW_SUFFIX = "_draw"
+
+
+def draw_level(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of ``model`` whose drawn robot meshes are the ``draw`` level of detail.
+
+    Every visual geom (contype and conaffinity 0) whose mesh ``<name>`` has a ``<name>_draw``
+    twin in the model draws the twin instead: about half the triangles (6,376 against 13,112
+    for the robot), indistinguishable at 640x480 from the fixed cameras. Only render-side fields
+    change (``geom_dataid`` of non-colliding geoms): the copy steps exactly as ``model``. A
+    model without twins (an older scene) comes back unchanged, as a copy.
+    """
+    out = copy.copy(model)
+    names = {model.mesh(i).name: i for i in range(model.nmesh)}
+    for g in range(model.ngeom):
+        if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH:
+            continue
+        if model.geom_contype[g] or model.geom_conaffinity[g]:
+            continue
+        twin = names.get(model.mesh(int(model.geom_dataid[g])).name + DRAW_SUFFIX)
+        if twin is not None:
+            out.geom_dataid[g] = twin
+    return out
+
+
+def shadow_casters(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
+    """Per geom: does it cast a shadow that can show? Everything but the world body's own
+    geoms (floor, hall walls, markings: flat or far, their shadows fall on nothing in view)."""
+    return np.asarray(model.geom_bodyid != 0)
+
+
+def limit_shadows(scene: mujoco.MjvScene, casters: npt.NDArray[np.bool_]) -> None:
+    """Switch off shadow casting of the scene's geoms that are not ``casters`` (by geom id);
+    call after every ``update_scene``. The shadow pass then draws only what casts."""
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if g.objtype == geom and not casters[g.objid]:
+            g.castshadow = 0
 
 
 def render_frame(

@@ -43,7 +43,14 @@ import numpy.typing as npt
 
 from kr210_sim.errors import RenderError
 from kr210_sim.media.recording import FrameStatus, Recording, apply_frame
-from kr210_sim.media.render import check_camera, check_frame_size, make_renderer
+from kr210_sim.media.render import (
+    check_camera,
+    check_frame_size,
+    draw_level,
+    limit_shadows,
+    make_renderer,
+    shadow_casters,
+)
 from kr210_sim.media.video import QUALITY, VideoSettings, _Writer
 from kr210_sim.util.interrupts import deferred
 
@@ -123,7 +130,9 @@ class FrameRenderer:
     def __init__(
         self, model: mujoco.MjModel, settings: VideoSettings, target_geoms: IntArray
     ) -> None:
-        self.model = model
+        # fast and medium draw the robot's lighter meshes (the close-ups of high keep the fine)
+        self.model = model if settings.quality == "high" else draw_level(model)
+        model = self.model
         self.geoms = np.asarray(target_geoms, dtype=np.int32)
         self.cameras = [check_camera(model, c) for c in settings.cameras]
         bin_cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "bin")
@@ -133,6 +142,7 @@ class FrameRenderer:
         model.vis.quality.shadowsize = shadow_size
         model.vis.quality.offsamples = msaa
         self.shadows = shadows
+        self.casters = shadow_casters(model)
         self.data = mujoco.MjData(model)
         self.renderer = make_renderer(model, settings.width, settings.height)
         #: The previous call's inputs and frame.
@@ -167,6 +177,8 @@ class FrameRenderer:
         for cam in self.tail_cameras if tail else self.cameras:
             self.renderer.update_scene(self.data, camera=cam)
             self.renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.shadows
+            if self.shadows:
+                limit_shadows(self.renderer.scene, self.casters)
             views.append(self.renderer.render())
         return views[0] if len(views) == 1 else np.concatenate(views, axis=1)
 

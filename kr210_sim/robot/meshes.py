@@ -15,11 +15,23 @@ counterbalance cylinder beside A2, a tapered rocker (link 2), the arm with the A
 the A4-A6 motor pack at its back, the in-line wrist and an ISO 9409-1-A125 tool flange.
 Generation is deterministic: the same code writes byte-identical files.
 ``python -m kr210_sim build-meshes`` regenerates ``assets/kr210/meshes/``.
+
+Three levels of detail come from the same builders (:data:`LEVELS`):
+
+* ``fine``: the drawn meshes of stills, close-ups and viewers (32 facets round a large part);
+* ``draw``: the meshes the video renderer draws at 640x480 from the fixed cameras, with half
+  the facets (``meshes/draw_*.stl``, swapped in by :func:`kr210_sim.media.render.draw_level`);
+* ``collide``: the points of the robot's hull colliders (:func:`collider_points`): every round
+  outline circumscribed with just enough facets that it stands at most :data:`COLLIDER_EXCESS`
+  proud of the round part it covers, every rounded box by its plain box, so each collider
+  encloses every fine and draw vertex of its parts with a few dozen hull vertices.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import math
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +43,14 @@ from kr210_sim.util.paths import MESH_DIR
 
 #: Facets around a round part.
 SECTIONS = 32
+#: Largest distance [m] a collider's circumscribed outline stands proud of its round part.
+COLLIDER_EXCESS = 0.004
+#: File name prefix of the ``draw`` level's meshes (``draw_<fine file name>``, same folder:
+#: MuJoCo's URDF import strips folders from mesh paths).
+DRAW_PREFIX = "draw_"
+#: The levels of detail (see the module's docstring).
+LEVELS = ("fine", "draw", "collide")
+_level = "fine"
 
 #: Finishes (materials) of the mesh parts; each link's URDF material is its main finish.
 FINISHES = ("orange", "dark", "black", "steel", "alu")
@@ -61,8 +81,26 @@ def _hull(points: npt.ArrayLike) -> trimesh.Trimesh:
 
 
 def _sections(radius: float) -> int:
-    """Facets around a round part of ``radius`` [m]: fewer for small parts."""
-    return 12 if radius < 0.012 else 24 if radius < 0.04 else SECTIONS
+    """Facets around a round part of ``radius`` [m] at the current level: fewer for small parts,
+    half as many for ``draw``; for ``collide`` the fewest (at least 6) whose circumscribed
+    outline stays within :data:`COLLIDER_EXCESS` of the circle."""
+    if _level == "collide":
+        return max(6, math.ceil(math.pi / math.acos(radius / (radius + COLLIDER_EXCESS))))
+    n = 12 if radius < 0.012 else 24 if radius < 0.04 else SECTIONS
+    return n // 2 if _level == "draw" else n
+
+
+@contextlib.contextmanager
+def _at_level(level: str) -> Iterator[None]:
+    """Build meshes at ``level`` (one of :data:`LEVELS`) inside the block."""
+    global _level
+    if level not in LEVELS:
+        raise ValueError(f"level must be one of {LEVELS}, got {level!r}")
+    before, _level = _level, level
+    try:
+        yield
+    finally:
+        _level = before
 
 
 def _circle(
@@ -75,6 +113,8 @@ def _circle(
     i = _AXES[axis]
     j, k = (i + 1) % 3, (i + 2) % 3
     t = (np.arange(n) + 0.5) * 2.0 * np.pi / n
+    if _level == "collide":  # circumscribed: the polygon encloses the circle
+        radius /= math.cos(math.pi / n)
     pts = np.zeros((n, 3))
     pts[:, i] = along
     pts[:, j] = at[j] + radius * np.cos(t)
@@ -110,7 +150,11 @@ def _rbox(
 ) -> trimesh.Trimesh:
     """A box between corners ``lo`` and ``hi`` [m] with every edge rounded by ``radius`` [m]."""
     lo_a, hi_a = np.array(lo, float) + radius, np.array(hi, float) - radius
-    ball = trimesh.creation.uv_sphere(radius=radius, count=[6, 8]).vertices
+    if _level == "collide":
+        ball = _enclosing_ball(radius)
+    else:
+        count = [4, 6] if _level == "draw" else [6, 8]
+        ball = trimesh.creation.uv_sphere(radius=radius, count=count).vertices
     corners = [
         ball + np.array([x, y, z])
         for x in (lo_a[0], hi_a[0])
@@ -118,6 +162,19 @@ def _rbox(
         for z in (lo_a[2], hi_a[2])
     ]
     return _hull(np.vstack(corners))
+
+
+def _enclosing_ball(radius: float) -> npt.NDArray[np.float64]:
+    """Points whose hull encloses a ball of ``radius`` [m] and stands at most
+    :data:`COLLIDER_EXCESS` proud of it (for a large ball at least 7 % of its radius): a
+    cube's corners for a small ball, else an icosphere scaled out to its inradius."""
+    if radius * (math.sqrt(3.0) - 1.0) <= COLLIDER_EXCESS:
+        return radius * np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    sub = 0 if radius * (1.0 / 0.79465 - 1.0) <= COLLIDER_EXCESS else 1
+    ico = trimesh.creation.icosphere(subdivisions=sub)
+    hull = trimesh.convex.convex_hull(ico.vertices)
+    inner = np.abs(np.einsum("ij,ij->i", hull.face_normals, hull.vertices[hull.faces[:, 0]]))
+    return np.asarray(ico.vertices) * (radius / float(inner.min()))
 
 
 def _slab(
@@ -353,11 +410,23 @@ def _join(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
     return mesh
 
 
-def build_parts(link: str) -> dict[str, trimesh.Trimesh]:
-    """The visual mesh of URDF link ``link`` by finish (the main finish first), link frame [m]."""
-    parts = BUILDERS[link]()
+def build_parts(link: str, level: str = "fine") -> dict[str, trimesh.Trimesh]:
+    """The visual mesh of URDF link ``link`` by finish (the main finish first), link frame [m],
+    at ``level`` of detail (see :data:`LEVELS`)."""
+    with _at_level(level):
+        parts = BUILDERS[link]()
     order = [MAIN_FINISH[link], *(f for f in FINISHES if f != MAIN_FINISH[link])]
     return {f: _join(parts[f]) for f in order if parts.get(f)}
+
+
+def collider_points(link: str) -> dict[str, npt.NDArray[np.float64]]:
+    """Hull vertices [m] (n, 3), link frame, of one collider per finish of ``link``'s mesh (the
+    finishes of :func:`build_parts`): the convex hull of that finish's parts built at the
+    ``collide`` level, which encloses the finish's ``fine`` and ``draw`` vertices."""
+    return {
+        f: np.asarray(_hull(mesh.vertices).vertices, dtype=np.float64)
+        for f, mesh in build_parts(link, "collide").items()
+    }
 
 
 def mesh_file(link: str, finish: str) -> str:
@@ -378,7 +447,8 @@ def stl_bytes(mesh: trimesh.Trimesh) -> bytes:
 
 def build_meshes(out_dir: Path | str = MESH_DIR) -> list[Path]:
     """Write every link's mesh parts (``<link>.stl``, ``<link>__<finish>.stl``) into
-    ``out_dir``; return the paths written.
+    ``out_dir``, and their ``draw`` level as ``draw_<name>`` beside them; return the paths
+    written.
 
     A file that already holds the same bytes is left untouched.
 
@@ -388,10 +458,11 @@ def build_meshes(out_dir: Path | str = MESH_DIR) -> list[Path]:
     out = check_folder(out_dir)
     paths = []
     for link in BUILDERS:
-        for finish, mesh in build_parts(link).items():
-            path = out / mesh_file(link, finish)
-            data = stl_bytes(mesh)
-            if not path.is_file() or path.read_bytes() != data:
-                write_bytes_atomic(path, data)
-            paths.append(path)
+        for level, prefix in (("fine", ""), ("draw", DRAW_PREFIX)):
+            for finish, mesh in build_parts(link, level).items():
+                path = out / (prefix + mesh_file(link, finish))
+                data = stl_bytes(mesh)
+                if not path.is_file() or path.read_bytes() != data:
+                    write_bytes_atomic(path, data)
+                paths.append(path)
     return paths
