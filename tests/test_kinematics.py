@@ -302,3 +302,27 @@ def test_planner_runner_and_scoring_use_the_robot_they_are_given() -> None:
     runner = Runner(RunConfig(cycles=1), robot=robot)
     assert runner.planner.kinematics.robot is robot
     assert runner.planner.checker is not None and runner.planner.checker.kin.robot is robot
+
+
+def test_package_code_takes_the_kinematics_of_its_robot() -> None:
+    """No module of the package but the kinematics itself uses the committed URDF's module-level
+    functions: each builds a :class:`Kinematics` from the description it was given."""
+    import ast
+    from pathlib import Path
+
+    package = Path(kin.__file__).resolve().parents[1]
+    bound = {"forward", "inverse", "nearest", "committed"}
+    found = []
+    for path in package.rglob("*.py"):
+        if path.name == "kinematics.py" and path.parent.name == "robot":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module == "kr210_sim.robot.kinematics":
+                found += [f"{path.name}: {a.name}" for a in node.names if a.name in bound]
+            elif isinstance(node, ast.ImportFrom) and node.module == "kr210_sim.robot":
+                found += [f"{path.name}: kinematics" for a in node.names if a.name == "kinematics"]
+            elif isinstance(node, ast.Import):
+                found += [
+                    f"{path.name}: {a.name}" for a in node.names if a.name.endswith(".kinematics")
+                ]
+    assert len(list(package.rglob("*.py"))) > 50 and not found, found
