@@ -116,10 +116,11 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
         "crashed": 3,
         "error": 1,
     }
-    assert by_name["hang"]["detail"] == "no answer within 1 s"
-    assert by_name["quits"]["detail"] == "the IK process exited with code 3 during a call"
-    assert by_name["exits"]["detail"] == "called sys.exit(4) during a call"
-    assert by_name["hog"]["detail"] == "ran out of memory during a call (limit 1024 MB)"
+    first = "(ik-check case 1 of 85: slot 1 standoff)"
+    assert by_name["hang"]["detail"] == f"no answer within 1 s {first}"
+    assert by_name["quits"]["detail"] == f"the IK process exited with code 3 during a call {first}"
+    assert by_name["exits"]["detail"] == f"called sys.exit(4) during a call {first}"
+    assert by_name["hog"]["detail"] == f"ran out of memory during a call (limit 1024 MB) {first}"
     assert by_name["syntax"]["detail"] == (
         "--ik '../class/syntax.py:solve': syntax error in ../class/syntax.py line 1: expected ':'"
     )

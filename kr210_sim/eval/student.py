@@ -176,17 +176,20 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     cases: list[Case] = []
     runner: Runner | None = None
     stopped: SandboxStop | None = None
+    stage = ""  # where a stop happened, for its detail
     try:
         sandbox.start()
         kin = Kinematics(load_robot())
         cases = fixed_cases(kin) + random_cases(kin, job.cases, job.seed)
         t = time.monotonic()
+        stage = "ik-check"
         records = check(kin, ik, cases, io.StringIO())
         record["wall_time_s"]["ik_check"] = time.monotonic() - t
         record["ik_check"] = _ik_figures(records)
         t = time.monotonic()
         runner = Runner(RunConfig(cycles=job.cycles, seed=job.seed), ik=ik)
         for i in range(1, job.cycles + 1):
+            stage = f"run, cycle {i}"
             runner.run_cycle(i, runner.slot_for_cycle())
         record["wall_time_s"]["run"] = time.monotonic() - t
     except SandboxStop as exc:
@@ -200,7 +203,12 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         if runner.planner.user_ik is not None:
             record["run"]["wall_time_per_call_s"] = runner.planner.user_ik.stats.mean
     if stopped is not None:
-        record["verdict"], record["detail"] = stopped.verdict, stopped.detail
+        where = stage
+        if stage == "ik-check" and 0 < sandbox.calls <= len(cases):
+            n = sandbox.calls
+            where = f"ik-check case {n} of {len(cases)}: {cases[n - 1].name}"
+        detail = f"{stopped.detail} ({where})" if where else stopped.detail
+        record["verdict"], record["detail"] = stopped.verdict, detail
     else:
         record["verdict"], record["detail"] = _verdict(job, record["ik_check"], run)
     if records and len(records) == len(cases):

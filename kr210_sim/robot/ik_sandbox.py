@@ -243,6 +243,7 @@ class IkSandbox:
         self.stdout = Captured()
         self.stderr = Captured()
         self.starts = 0
+        self.calls = 0
         self.faults: list[str] = []
         self._own_scratch = scratch is None
         self.scratch = Path(tempfile.mkdtemp(prefix="kr210_ik_")) if scratch is None else scratch
@@ -382,6 +383,7 @@ class IkSandbox:
         array, None, or the exception it raised, re-raised here with its type's name)."""
         if self._proc is None or self._proc.poll() is not None:
             self.start()
+        self.calls += 1
         req_w, ans_r = self._fds
         T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
         q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
