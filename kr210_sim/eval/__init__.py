@@ -1,2 +1,2 @@
 """Evaluating many episodes: episodes, local and Ray backends, the result stream and summary, the
-IK check."""
+IK check, and grading a class of IK solutions (grade, student, diagnose, leaderboard)."""
