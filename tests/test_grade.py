@@ -72,7 +72,7 @@ def _ours_running(marker: str) -> list[str]:
             continue
         try:
             cmd = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
-            state = Path(f"/proc/{pid}/stat").read_text().split(") ")[1][0]
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(") ", 1)[1][0]
         except (OSError, IndexError):
             continue
         if marker in cmd and state != "Z":

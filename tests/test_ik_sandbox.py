@@ -37,11 +37,14 @@ def _file(folder: Path, name: str, body: str) -> str:
 
 
 def _gone(pid: int, within: float = 5.0) -> bool:
+    """Whether process ``pid`` ends (or is a zombie waiting to be reaped) within ``within`` s."""
     end = time.monotonic() + within
     while time.monotonic() < end:
         try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(") ", 1)[1][0]
+        except (OSError, IndexError):
+            return True
+        if state == "Z":
             return True
         time.sleep(0.05)
     return False
@@ -214,6 +217,26 @@ def test_captured_keeps_head_and_tail() -> None:
         c.add(chunk)
     assert (bytes(c.head), bytes(c.tail), c.total) == (b"abcde", b"opqrs", 19)
     assert c.text() == "abcde\n[... 9 bytes left out ...]\nopqrs"
+
+
+def test_processes_the_user_code_starts_are_killed_with_it(tmp_path: Path) -> None:
+    spec = _file(
+        tmp_path,
+        "spawns",
+        """
+        import subprocess
+        child = subprocess.Popen(["sleep", "300"])
+        open("child_pid", "w").write(str(child.pid))
+        def solve(T, q):
+            return list(q)
+        """,
+    )
+    scratch = tmp_path / "scratch"
+    with IkSandbox(spec, scratch=scratch) as box:
+        box(kinematics.forward(Q), Q)
+        child = int((scratch / "child_pid").read_text())
+        os.kill(child, 0)  # running
+    assert _gone(child), "a process the user's code started outlived the sandbox"
 
 
 def test_the_process_dies_with_its_parent(tmp_path: Path) -> None:
