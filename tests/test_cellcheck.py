@@ -10,14 +10,22 @@ from kr210_sim.cell.load import model_for
 from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
 from kr210_sim.plan.cellcheck import check_cell
+from kr210_sim.sim.runner import RunConfig, Runner
 
 CELLS = PUBLISHED_CELL.parent
 
 
 def test_the_published_cell_is_served_without_detours() -> None:
-    result = check_cell(model_for())
+    model = model_for()
+    result = check_cell(model)
     assert result.ok and len(result.slots) == 9 and len(result.drops) == 9
     assert not any(r.detour for r in (*result.slots, *result.drops))
+    # every slot's cycle carries to the drop spot a run's first cycle picks
+    runner = Runner(RunConfig(cycles=1), model=model)
+    sample, k = runner.start_cycle(1, 5)
+    plan = runner.plan_cycle(runner.observe_target(k), sample.spec)
+    assert [r.drop_spot for r in result.slots] == [plan.drop_spot + 1] * 9 == [1] * 9
+    assert [r.drop_spot for r in result.drops] == list(range(1, 10))
 
 
 def test_an_unreachable_shelf_is_rejected_with_a_table(capsys: pytest.CaptureFixture[str]) -> None:
@@ -51,8 +59,6 @@ def test_the_column_cell_needs_detours_and_gets_them() -> None:
 def test_example_cells_run_with_no_contact(name: str) -> None:
     """Three cycles per example cell (bottom, middle and top rows); `run --cycles 10` on each
     is 10/10 too (README)."""
-    from kr210_sim.sim.runner import RunConfig, Runner
-
     runner = Runner(RunConfig(cycles=3), model=model_for(cell=CELLS / f"{name}.toml"))
     n = runner.layout.n_slots
     columns = {"grid_4x2": 2}.get(name, 3)

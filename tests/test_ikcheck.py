@@ -9,9 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.load import load_model
+from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cli import main
-from kr210_sim.eval.ikcheck import fixed_cases, random_cases, run_check
-from kr210_sim.plan.planner import grasp_depth
+from kr210_sim.eval.ikcheck import cell_cases, fixed_cases, random_cases, run_check
+from kr210_sim.plan.planner import Planner, grasp_depth
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.user_ik import UserIk, load_ik
@@ -43,6 +46,22 @@ def test_the_fixed_cases() -> None:
     assert max(np.abs(np.minimum(c.q_ref - g.lower, g.upper - c.q_ref)).min() for c in lims) == (
         pytest.approx(1e-3)
     )
+
+
+def test_the_cell_cases_are_the_cycle_plans_poses() -> None:
+    layout = CellLayout.from_model(load_model())
+    planner = Planner(load_robot(), MotionConfig())
+    t = layout.target
+    p = layout.slots[4] + np.array([0.0, 0.0, t.length / 2.0])
+    plan = planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots)
+    posed = [s for s in plan.steps if s.T is not None and s.pose != "drop"]
+    cases = [c for c in cell_cases(KIN) if c.name.startswith("slot 5 ")]
+    names = ["slot 5 standoff", "slot 5 grasp", "slot 5 lift", "slot 5 retreat"]
+    assert [c.name for c in cases] == [f"slot 5 {s.pose}" for s in posed] == names
+    for case, step in zip(cases, posed, strict=True):
+        assert step.move is not None
+        assert np.array_equal(case.T, step.T)
+        assert np.array_equal(case.q_ref, step.move.trajectory.q_start)
 
 
 def test_random_cases_are_seeded() -> None:

@@ -17,7 +17,7 @@ import kr210_sim.envs  # noqa: E402
 from kr210_sim.envs.pick_place import POLICY_DT, PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
 from kr210_sim.score.scoring import in_bin  # noqa: E402
-from kr210_sim.sim.runner import RunConfig, Runner, sample_target  # noqa: E402
+from kr210_sim.sim.session import episode_runner  # noqa: E402
 from kr210_sim.util.paths import SCENE_PATH  # noqa: E402
 
 ENV_ID = kr210_sim.envs.ENV_ID
@@ -56,9 +56,8 @@ def test_check_env_passes(control: str) -> None:
 
 def test_reset_spawns_what_run_spawns_for_the_seed(joint_env: PickPlaceEnv) -> None:
     for seed, randomize in ((0, False), (7, True), (123, True)):
-        config = RunConfig(cycles=1, seed=seed, randomize=randomize)
-        runner = Runner(config)
-        expected = sample_target(runner.rng, config, runner.layout, runner.slot_for_cycle())
+        runner = episode_runner(seed, randomize=randomize)
+        expected, _ = runner.start_cycle(1, runner.slot_for_cycle())
         _, info = joint_env.reset(seed=seed, options={"randomize": randomize})
         assert joint_env.target == expected and info["slot"] == expected.slot
         p, _ = joint_env.cell.target_pose()

@@ -29,6 +29,9 @@ def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
         assert r.cycle_time < 6.5
         assert r.grasp_attempts == 1
         assert in_bin(r.target_final, runner.layout.bin)
+        # the cycle ran its plan's steps, to the next drop spot in turn
+        assert runner.plan is not None and runner.plan.drop_spot == i - 1
+        assert list(r.phase_times) == ["spawn", *runner.plan.phases, "settle"]
     # all three cylinders are in the bin, and each went to its own drop spot
     finals = np.array([r.target_final for r in runner.results])
     assert len({tuple(np.round(f[:2], 1)) for f in finals}) == 3

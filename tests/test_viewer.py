@@ -32,7 +32,6 @@ from kr210_sim.score.report import strip_wall
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, Runner
 from kr210_sim.view.live import (
-    DEMO_PHASES,
     DemoGate,
     JointPose,
     LiveSettings,
@@ -115,7 +114,10 @@ def test_demo_gate_pauses_once_before_every_phase_of_a_cycle() -> None:
     gate = DemoGate(lambda phase: waited.append((phase, runner.cell.time)))
     runner.on_phase = gate
     runner.run_cycle(1, runner.slot_for_cycle())
-    assert [p for p, _ in waited] == list(DEMO_PHASES) == gate.paused
+    assert runner.plan is not None  # the phases are the cycle plan's, in its order
+    phases = ("approach", "grasp", "lift", "retreat", "carry", "release", "return")
+    assert runner.plan.phases == phases
+    assert [p for p, _ in waited] == list(runner.plan.phases) == gate.paused
     # Before each phase runs: the first pause comes right after the 0.1 s spawn settle, and
     # every phase takes simulated time after its pause.
     times = [t for _, t in waited]
@@ -185,7 +187,8 @@ def _view_matches_run(tmp: str, demo: bool) -> None:
         presser.stop.set()
     assert strip_wall(viewed.report) == strip_wall(ran.report)
     assert viewed.frames > 10 * config.cycles and not viewed.interrupted
-    assert viewed.paused == (list(DEMO_PHASES) if demo else [])
+    phases = ["approach", "grasp", "lift", "retreat", "carry", "release", "return"]
+    assert viewed.paused == (phases if demo else [])
     assert out.getvalue().count("demo: next phase") == (7 if demo else 0)
 
 

@@ -2,10 +2,10 @@
 through the environment's own action space.
 
 At the first step of an episode the expert plans the cycle ``run`` executes, from the observed
-cylinder (``achieved_goal``) and its radius: approach (joint space, then a straight line), close,
-lift, retreat, carry to the bin, open, return (:class:`kr210_sim.plan.planner.Planner`). Every step
-it
-turns the plan into an action:
+cylinder (``achieved_goal``) and its size: the environment's runner's
+:meth:`~kr210_sim.sim.runner.Runner.plan_cycle`, with the same collision checks, detours and drop
+spot as ``run`` (:class:`kr210_sim.plan.cycle.CyclePlan`: approach, close, lift, retreat, carry
+to the bin, open, return). Every step it turns the plan into an action:
 
 * ``joint``: the joint velocity that brings the servo command to the plan's joint state one
   policy step ahead (the plan respects the velocity limits, so the action stays in [-1, 1]).
@@ -14,9 +14,11 @@ turns the plan into an action:
   gripper faster than the action space allows, so the expert's clock advances only as far as
   the action can follow (found by bisection): the cartesian expert runs the same path, slower.
 
-The gripper entry is -1 (open) or +1 (closed) by phase. The expert reads the environment's
-command state and the cylinder's radius (privileged information, as scripted demonstrators in
-robosuite and ManiSkill do); it never touches the simulation.
+The gripper entry is -1 (open) or +1 (closed), switched by the plan's grip steps; the arm holds
+for :data:`CLOSE_TIME` at the close and for the plan's wait at the release. The expert reads
+the environment's command state and the cylinder's size (privileged information, as scripted
+demonstrators in robosuite and ManiSkill do) and plans with its runner; it never touches the
+simulation.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy.typing as npt
 
 from kr210_sim.envs.pick_place import MAX_SPEED, MAX_YAW_RATE, POLICY_DT, PickPlaceEnv
 from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
-from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.cycle import CyclePlan, Grip
 from kr210_sim.sim.cell import JointTrajectory, hold
 
 log = logging.getLogger(__name__)
@@ -80,7 +82,8 @@ class ScriptedExpert:
                 f"ScriptedExpert drives kr210_sim/PickPlace-v0, got {type(inner).__name__}"
             )
         self.env = inner
-        self.planner = Planner(inner.robot, inner.motion)
+        #: The episode's cycle plan (None before the first step, or when none exists).
+        self.plan: CyclePlan | None = None
         self._episode = -1
         self._script: list[_Segment] = []
         self._t = 0.0
@@ -105,35 +108,28 @@ class ScriptedExpert:
 
     # -- the script ----------------------------------------------------------------------------
     def _plan(self, position: FloatArray) -> list[_Segment]:
-        """The cycle's segments from the ready pose; a hold with the gripper open when no plan
-        exists (the episode then fails as ``run`` would score it: unreachable)."""
+        """The cycle plan's steps as segments from the ready pose; a hold with the gripper open
+        when no plan exists (the episode then fails as ``run`` would score it: unreachable)."""
         e = self.env
         assert e.target is not None
-        radius = e.target.spec.radius
         q0 = e.q_cmd.copy()
+        self.plan = None
         try:
-            length = e.target.spec.length
-            g = self.planner.plan_grasp(q0, position, radius, length)
-            carry = self.planner.plan_carry(g.retreat.q_end, e.layout.drop_spots[0], radius, length)
-            back = self.planner.plan_return(carry.q_end)
+            plan = self.plan = e.runner.plan_cycle(position, e.target.spec, q0)
         except (UnreachablePoseError, PlanningError) as exc:
             log.info("episode %d: no plan: %s", e.episode, exc)
             return [_Segment(0.0, hold(q0, math.inf), -1.0)]
-        parts: list[tuple[JointTrajectory, float]] = [
-            (g.approach_ptp.trajectory, -1.0),
-            (g.approach_lin.trajectory, -1.0),
-            (hold(g.approach_lin.q_end, CLOSE_TIME), 1.0),
-            (g.lift.trajectory, 1.0),
-            (g.retreat.trajectory, 1.0),
-            (carry.trajectory, 1.0),
-            (hold(carry.q_end, e.motion.release_wait), -1.0),
-            (back.trajectory, -1.0),
-            (hold(back.q_end, math.inf), -1.0),
-        ]
-        script, t = [], 0.0
-        for traj, grip in parts:
+        script, t, q, grip = [], 0.0, q0, -1.0
+        for step in plan.steps:
+            traj: JointTrajectory
+            if step.move is not None:
+                traj, q = step.move.trajectory, step.move.q_end
+            else:  # a grip: the gripper's command changes, the arm holds
+                grip = 1.0 if step.grip is Grip.CLOSE else -1.0
+                traj = hold(q, CLOSE_TIME if step.grip is Grip.CLOSE else step.wait)
             script.append(_Segment(t, traj, grip))
             t += traj.duration
+        script.append(_Segment(t, hold(q, math.inf), grip))
         return script
 
     def _segment(self, t: float) -> _Segment:
@@ -154,7 +150,7 @@ class ScriptedExpert:
         e = self.env
 
         def need(t: float) -> tuple[float, FloatArray]:
-            T = self.planner.kinematics.forward(self._q_at(t))
+            T = e.kinematics.forward(self._q_at(t))
             a = np.append(
                 (T[:3, 3] - e.p_cmd) / (MAX_SPEED * POLICY_DT),
                 _wrap(math.atan2(T[1, 0], T[0, 0]) - e.yaw_cmd) / (MAX_YAW_RATE * POLICY_DT),

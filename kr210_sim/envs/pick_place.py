@@ -1,12 +1,12 @@
 """``kr210_sim/PickPlace-v0``: the cell as a goal-conditioned Gymnasium environment.
 
-One episode is one pick-and-place cycle: a fresh cylinder spawned by the runner's own sampler
-(:func:`kr210_sim.sim.runner.sample_target`, through :class:`kr210_sim.sim.targets.TargetPool`),
-the arm
-at the ready pose. The policy runs at 25 Hz: each step holds one command for
-:data:`SUBSTEPS` = 20 physics steps of 2 ms (:data:`POLICY_DT` = 40 ms), tracked by the same
-servo law as ``run`` (:meth:`kr210_sim.sim.cell.Cell.step_command`: ``Cell.track`` on a
-constant-velocity command, velocity feed-forward included).
+One episode is one pick-and-place cycle, set up as every episode is
+(:func:`kr210_sim.sim.session.episode_runner`: a fresh runner, the arm at the ready pose, a
+cylinder spawned by the runner's own sampler, :meth:`~kr210_sim.sim.runner.Runner.start_cycle`);
+the policy moves the arm instead of the runner. The policy runs at 25 Hz: each step holds one
+command for :data:`SUBSTEPS` = 20 physics steps of 2 ms (:data:`POLICY_DT` = 40 ms), tracked by
+the same servo law as ``run`` (:meth:`kr210_sim.sim.cell.Cell.step_command`: ``Cell.track`` on
+a constant-velocity command, velocity feed-forward included).
 
 Observations (a ``Dict`` like Gymnasium-Robotics' Fetch tasks):
 
@@ -55,7 +55,7 @@ import numpy.typing as npt
 from gymnasium import spaces
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.load import load_model
+from kr210_sim.cell.load import model_at
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.planner import gripper_pose
@@ -63,9 +63,9 @@ from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.result import TargetSample
 from kr210_sim.score.scoring import RestCounter, bin_region, episode_success
-from kr210_sim.sim.cell import Cell, hold
-from kr210_sim.sim.runner import SPAWN_SETTLE, RunConfig, sample_target
-from kr210_sim.sim.targets import TargetPool
+from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.session import episode_runner
 
 import mujoco  # isort: skip
 
@@ -123,7 +123,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         camera: Named camera for rendering (``overview``, ``shelf``, ``bin``, ``gripper``).
         width: Frame width [px].
         height: Frame height [px].
-        scene: Another MJCF cell, or None for the committed scene.
+        scene: Another cell: an MJCF scene or a cell file (``.toml``, compiled); None for the
+            committed scene.
 
     Raises:
         ConfigError: A bad argument (one sentence naming the choices).
@@ -155,7 +156,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.control, self.reward_type, self.max_steps = control, reward, max_steps
         self.run_config = RunConfig(cycles=1, slot=slot, randomize=bool(randomize))
         self.render_mode = render_mode
-        self.model = load_model(scene)
+        self.model = model_at(scene)
         if render_mode is not None:
             from kr210_sim.media.render import check_camera
 
@@ -165,7 +166,6 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.robot = load_robot()
         self.kinematics = Kinematics(self.robot)
         self.motion = MotionConfig()
-        self.cell = Cell(self.model)
         #: The cell as the compiled model holds it (slots, bin, drop spots): what ``run`` uses.
         self.layout = CellLayout.from_model(self.model)
         if not 0 <= self.run_config.slot <= self.layout.n_slots:
@@ -177,6 +177,10 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
                 f"the scene's timestep is {self.model.opt.timestep} s; the environment needs "
                 f"{POLICY_DT / SUBSTEPS} s ({SUBSTEPS} physics steps per policy step)"
             )
+        #: The episode's runner (:func:`~kr210_sim.sim.session.episode_runner`, on this
+        #: environment's model): its cell is :attr:`cell`, its planner is the expert's.
+        self.runner = self._runner(RunConfig(cycles=1), None)
+        self.cell: Cell = self.runner.cell
         self.ready_q = np.asarray(self.motion.ready_q, dtype=np.float64)
         self.q_lower, self.q_upper = self.robot.q_lower.copy(), self.robot.q_upper.copy()
         self.qd_max = self.robot.qd_max.copy()
@@ -236,12 +240,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         config = RunConfig(
             cycles=1, slot=int(slot), randomize=bool(options.get("randomize", base.randomize))
         )
-        slot = config.slot or int(self.np_random.integers(1, n + 1))
-        self.target = sample_target(self.np_random, config, self.layout, slot)
-        self.cell.reset(self.ready_q)
-        pool = TargetPool(self.cell, self.layout)
-        pool.spawn(self.target.position, self.target.yaw, self.target.spec)
-        self.cell.track(hold(self.ready_q, SPAWN_SETTLE))
+        self.runner = self._runner(config, self.np_random)
+        self.cell = self.runner.cell
+        self.target, _ = self.runner.start_cycle(1, self.runner.slot_for_cycle())
         self.q_cmd = self.ready_q.copy()
         T = self.kinematics.forward(self.q_cmd)
         self.p_cmd, self.yaw_cmd = T[:3, 3].copy(), _yaw(T[:3, :3])
@@ -342,6 +343,17 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             self._renderer = None
 
     # -- helpers -----------------------------------------------------------------------------
+    def _runner(self, config: RunConfig, rng: np.random.Generator | None) -> Runner:
+        """A fresh episode runner on this environment's model (the renderer draws it)."""
+        return episode_runner(
+            slot=config.slot,
+            randomize=config.randomize,
+            model=self.model,
+            copy_model=False,
+            robot=self.robot,
+            rng=rng,
+        )
+
     def _check_action(self, action: npt.ArrayLike) -> FloatArray:
         try:
             a = np.asarray(action, dtype=np.float64)

@@ -1,7 +1,8 @@
 """One evaluation episode: a pure function of its seed, run in whichever process holds the model.
 
 Each episode is a fresh cell (a copy of the pristine model, the arm at the ready pose, an empty
-bin) running one cycle of ``RunConfig(cycles=1, seed=episode_seed, randomize=...)``. Episode
+bin) running one cycle of ``RunConfig(cycles=1, seed=episode_seed, randomize=...)``
+(:func:`kr210_sim.sim.session.episode_runner`). Episode
 ``i``'s seed is drawn from ``numpy.random.SeedSequence([seed, i])``, so results do not depend on
 how episodes are spread over processes or machines, and any episode is replayed exactly by
 ``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize]``.
@@ -12,7 +13,6 @@ and keeps it: :func:`run_chunk` is the unit of work that the backends ship.
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from kr210_sim.score.result import CycleResult, cycle_record
-from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.session import episode_runner
 
 import mujoco  # isort: skip
 
@@ -55,13 +55,12 @@ def run_episode(
     """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
     SPEC ``ik`` (None: ours; loaded once per process; with ``ik_timeout`` [s] in a process of
     its own, :func:`~kr210_sim.robot.ik_sandbox.load_user_ik`)."""
-    config = RunConfig(cycles=1, seed=seed, randomize=randomize)
     user_ik = None
     if ik is not None:
         from kr210_sim.robot.ik_sandbox import load_user_ik
 
         user_ik = load_user_ik(ik, ik_timeout)
-    runner = Runner(config, model=copy.copy(load_pristine(scene)), ik=user_ik)
+    runner = episode_runner(seed, randomize=randomize, model=load_pristine(scene), ik=user_ik)
     return runner.run_cycle(1, runner.slot_for_cycle())
 
 

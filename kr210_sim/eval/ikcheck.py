@@ -79,25 +79,26 @@ class Case:
 
 
 def cell_cases(kin: Kinematics) -> list[Case]:
-    """Standoff, grasp, lift and retreat poses of every slot and the drop pose of every drop
-    spot of the published cell, as the planner of ``kin``'s robot computes them."""
+    """The gripper poses of every slot's cycle plan in the published cell (the nominal target,
+    from the ready pose; its drop pose is left to the drop-spot cases) and the drop pose of
+    every drop spot, as the planner of ``kin``'s robot computes them."""
     from kr210_sim.cell.layout import CellLayout
     from kr210_sim.cell.load import load_model
+    from kr210_sim.cell.spec import MotionConfig
     from kr210_sim.plan.planner import Planner
     from kr210_sim.sim.runner import RunConfig, sample_target
 
-    config = RunConfig()
     layout = CellLayout.from_model(load_model())
-    planner = Planner(kin.robot, config.motion)
+    planner = Planner(kin.robot, MotionConfig())  # the poses need no collision checks
     rng = np.random.default_rng(0)  # unused: the nominal target draws nothing
     cases: list[Case] = []
     for slot in range(1, layout.n_slots + 1):
-        target = sample_target(rng, config, layout, slot)
-        poses = planner.grasp_poses(target.position, target.spec.radius)
-        q_ref = planner.ready_q
-        for what, T in zip(("standoff", "grasp", "lift", "retreat"), poses, strict=True):
-            cases.append(Case("cell", f"slot {slot} {what}", T, q_ref.copy()))
-            q_ref = kin.nearest(T, q_ref)
+        target = sample_target(rng, RunConfig(), layout, slot)
+        plan = planner.plan_cycle(planner.ready_q, target.position, target.spec, layout.drop_spots)
+        for step in plan.steps:  # q_ref: where the plan's move to the pose starts
+            if step.T is not None and step.move is not None and step.pose != "drop":
+                q_ref = step.move.trajectory.q_start.copy()
+                cases.append(Case("cell", f"slot {slot} {step.pose}", step.T, q_ref))
     for i, drop in enumerate(layout.drop_spots, start=1):
         T = planner.drop_pose(drop, layout.target.radius)
         cases.append(Case("cell", f"drop spot {i}", T, planner.ready_q.copy()))

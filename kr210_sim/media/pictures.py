@@ -30,9 +30,9 @@ def grasp_states(
     Returns:
         The model, the states, and the index of the first state of the grasp.
     """
-    from kr210_sim.sim.runner import RunConfig, Runner
+    from kr210_sim.sim.session import episode_runner
 
-    runner = Runner(RunConfig(cycles=1, seed=0, slot=slot))
+    runner = episode_runner(0, slot=slot)
     snaps: list[mujoco.MjData] = []
     grasp_at: list[float] = []
 

@@ -547,8 +547,9 @@ def record_episode(
     """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
 
     Episodes are pure functions of their seed and IK (see :mod:`kr210_sim.eval.evaluate`): a fresh
-    cell and one cycle of ``RunConfig(cycles=1, seed=seed, randomize=randomize)``, so the re-run
-    is the episode. The closing bin shot is recorded too.
+    cell and one cycle of ``RunConfig(cycles=1, seed=seed, randomize=randomize)``, built by
+    :func:`kr210_sim.sim.session.episode_runner` as the episode was, so the re-run is the
+    episode. The closing bin shot is recorded too.
 
     Args:
         seed: The episode's seed.
@@ -566,18 +567,16 @@ def record_episode(
     Raises:
         ConfigError: When the folder or file cannot be written.
     """
-    import copy
-
     from kr210_sim.cell.load import model_at
     from kr210_sim.score.report import build_report
-    from kr210_sim.sim.runner import RunConfig, Runner
+    from kr210_sim.sim.session import episode_runner
     from kr210_sim.util.outputs import check_folder
 
     folder = check_folder(out_dir)
     pristine = model if model is not None else model_at(scene)
     identity = model_identity(pristine)
-    config = RunConfig(cycles=1, seed=seed, randomize=randomize)
-    runner = Runner(config, model=copy.copy(pristine), ik=ik)
+    runner = episode_runner(seed, randomize=randomize, model=pristine, ik=ik)
+    config = runner.config
     recorder = StateRecorder(
         runner.model, runner.cell.handles.target_geoms, runner.status, rate=rate
     )

@@ -1,8 +1,9 @@
 """The ``check`` command: can this cell be served, slot by slot and drop spot by drop spot?
 
-For every slot the nominal target is planned as a cycle would plan it, before anything runs:
-standoff, grasp, lift and retreat (IK inside the limits), the carry to the first drop spot and
-the return, each collision-checked (:mod:`kr210_sim.plan.collide`) and detoured where it must be.
+For every slot the nominal target's whole cycle is planned as the first cycle of a run plans it
+(:meth:`~kr210_sim.plan.planner.Planner.plan_cycle`), before anything runs: standoff, grasp,
+lift and retreat (IK inside the limits), the carry to the drop spot the run picks first and the
+return, each collision-checked (:mod:`kr210_sim.plan.collide`) and detoured where it must be.
 Every drop spot is planned from the ready pose with the target held. The table says, per row,
 whether it is reachable, whether a collision-free plan was found, whether it needed a detour,
 what blocks otherwise, and the planning time.
@@ -11,7 +12,9 @@ what blocks otherwise, and the planning time.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -19,6 +22,7 @@ from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
+from kr210_sim.plan.cycle import drop_spot_index
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
@@ -37,6 +41,8 @@ class CheckRow:
         detour: The plan goes through via points.
         planning_ms: Wall time of the planning [ms].
         detail: What blocks (empty when served).
+        drop_spot: The drop spot the row's carry goes to (1-based; for a slot, the one the
+            run's first cycle picks).
     """
 
     what: str
@@ -45,6 +51,7 @@ class CheckRow:
     detour: bool
     planning_ms: float
     detail: str
+    drop_spot: int = 0
 
     @property
     def served(self) -> bool:
@@ -93,17 +100,19 @@ class CellCheck:
         return "\n".join(lines)
 
 
-def _row(what: str, planner: Planner, plan: object) -> CheckRow:
+def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], object]) -> CheckRow:
     detours = planner.detours
     t0 = time.perf_counter()
     try:
-        plan()  # type: ignore[operator]
+        plan()
     except NoPathError as exc:
-        return CheckRow(what, True, False, False, 1e3 * (time.perf_counter() - t0), str(exc))
+        ms = 1e3 * (time.perf_counter() - t0)
+        return CheckRow(what, True, False, False, ms, str(exc), drop_spot)
     except (UnreachablePoseError, IkFailedError, PlanningError) as exc:
-        return CheckRow(what, False, False, False, 1e3 * (time.perf_counter() - t0), str(exc))
+        ms = 1e3 * (time.perf_counter() - t0)
+        return CheckRow(what, False, False, False, ms, str(exc), drop_spot)
     ms = 1e3 * (time.perf_counter() - t0)
-    return CheckRow(what, True, True, planner.detours > detours, ms, "")
+    return CheckRow(what, True, True, planner.detours > detours, ms, "", drop_spot)
 
 
 def check_cell(
@@ -119,22 +128,22 @@ def check_cell(
     )
     t = layout.target
     ready = planner.ready_q
+    first = drop_spot_index(0, len(layout.drop_spots)) + 1  # a run's first cycle's
 
     def slot_plan(n: int) -> None:
         p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
-        grasp = planner.plan_grasp(ready, p, t.radius, t.length)
-        carry = planner.plan_carry(grasp.retreat.q_end, layout.drop_spots[0], t.radius, t.length)
-        planner.plan_return(carry.q_end)
+        planner.plan_cycle(ready, p, t, layout.drop_spots)
 
     def drop_plan(n: int) -> None:
         carry = planner.plan_carry(ready, layout.drop_spots[n - 1], t.radius, t.length)
         planner.plan_return(carry.q_end)
 
     slots = tuple(
-        _row(f"slot {n}", planner, lambda n=n: slot_plan(n)) for n in range(1, layout.n_slots + 1)
+        _row(f"slot {n}", first, planner, partial(slot_plan, n))
+        for n in range(1, layout.n_slots + 1)
     )
     drops = tuple(
-        _row(f"drop {n}", planner, lambda n=n: drop_plan(n))
+        _row(f"drop {n}", n, planner, partial(drop_plan, n))
         for n in range(1, len(layout.drop_spots) + 1)
     )
     return CellCheck(layout.name, slots, drops)

@@ -9,7 +9,9 @@ the gripper exactly level all the way (the joints move on proportional profiles)
 stays upright, and the swing's centripetal pull acts along the fingers towards the fingertip
 lips, which stop it.
 
-Sequence (phase names are what the runner records and the video shows)::
+:meth:`Planner.plan_cycle` returns the whole cycle as one
+:class:`~kr210_sim.plan.cycle.CyclePlan`, these steps in order (phase names are what the runner
+records, the video shows and view's demo mode stops before)::
 
     approach  PTP   ready -> standoff (in front of the target, clear of the shelf)
     approach  LIN   standoff -> grasp (fingers straddle the cylinder)
@@ -19,12 +21,15 @@ Sequence (phase names are what the runner records and the video shows)::
     carry     PTP   to the drop pose above the bin
     release   grip  open, wait
     return    PTP   back to the ready pose
+
+The carry goes to the cell's drop spots in turn (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -34,6 +39,7 @@ import numpy.typing as npt
 
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import NoPathError, PlanningError, UnreachablePoseError
+from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_index
 from kr210_sim.plan.trajectory import (
     ChainTrajectory,
     JointLimits,
@@ -53,26 +59,6 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Clearance between the cylinder and the fingertip lips at the grasp, along x [m].
 LIP_CLEARANCE = 0.0005
-
-
-@dataclass(frozen=True, slots=True)
-class Move:
-    """One arm motion of a cycle.
-
-    Attributes:
-        phase: Phase name (approach, lift, retreat, carry, return).
-        kind: "ptp" (joint space) or "lin" (straight line in Cartesian space).
-        trajectory: The time-parametrised joint trajectory.
-    """
-
-    phase: str
-    kind: str
-    trajectory: Trajectory
-
-    @property
-    def q_end(self) -> FloatArray:
-        """Joint state at the end of the move [rad]."""
-        return self.trajectory.sample(self.trajectory.duration)[0]
 
 
 @dataclass(frozen=True, slots=True)
@@ -395,6 +381,59 @@ class Planner:
         if key not in self._returns:
             self._returns = {key: self.checked(self.ptp("return", q_start, self.ready_q))}
         return self._returns[key]
+
+    def plan_cycle(
+        self,
+        q_start: FloatArray,
+        target_position: npt.ArrayLike,
+        target: TargetSpec,
+        drop_spots: npt.ArrayLike,
+        placed: int = 0,
+    ) -> CyclePlan:
+        """Plan the whole cycle for a target before the arm moves (see the module doc).
+
+        Args:
+            q_start: Arm joint state at the start [rad].
+            target_position: Observed target centre [m].
+            target: The target's size (radius and length; the held target is checked with it).
+            drop_spots: The cell's drop spots, shape (n, 2): (x, y) [m].
+            placed: Targets put in play since the bin was last emptied, this one not counted:
+                it picks the drop spot (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+
+        Raises:
+            UnreachablePoseError: When a pose has no IK solution inside the limits.
+            NoPathError: When a move collides with the cell and no detour is clear.
+            IkFailedError: When the user's IK gives an unusable answer.
+            PlanningError: When a trajectory breaks a limit.
+        """
+        t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
+        r, length = target.radius, target.length
+        spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
+        spot = drop_spot_index(placed, len(spots))
+        drop = spots[spot]
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r)
+        g = self.plan_grasp(q_start, target_position, r, length)
+        carry = self.plan_carry(g.retreat.q_end, drop, r, length)
+        back = self.plan_return(carry.q_end)
+        m = self.motion
+        steps = (
+            Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
+            Step("approach", g.approach_lin, pose="grasp", T=T_grasp),
+            Step("grasp", grip=Grip.CLOSE, wait=m.close_timeout),
+            Step("lift", g.lift, pose="lift", T=T_lift),
+            Step("retreat", g.retreat, pose="retreat", T=T_back),
+            Step("carry", carry, pose="drop", T=self.drop_pose(drop, r)),
+            Step("release", grip=Grip.OPEN, wait=m.release_wait),
+            Step("return", back),
+        )
+        return CyclePlan(
+            steps,
+            spot,
+            (float(drop[0]), float(drop[1])),
+            self.detours - detours0,
+            time.perf_counter() - t0,
+            time.process_time() - c0,
+        )
 
     def check_ready(self) -> None:
         """Raise PlanningError when the configured ready pose breaks a joint limit."""

@@ -21,7 +21,8 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.planner import Move, Planner
+from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step
+from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
@@ -139,6 +140,8 @@ class Runner:
             run.
         ik: A user's IK function to plan with (default: our closed form); a cycle whose plan
             meets an unusable answer is scored ``ik_failed``.
+        rng: The generator slots and targets are drawn from (default: one seeded with
+            ``config.seed``).
     """
 
     def __init__(
@@ -148,6 +151,7 @@ class Runner:
         robot: RobotDescription | None = None,
         keep_recordings: bool = False,
         ik: UserIk | None = None,
+        rng: np.random.Generator | None = None,
     ) -> None:
         self.config = config
         self.robot = robot or load_robot()
@@ -162,7 +166,7 @@ class Runner:
         checker = CollisionChecker(self.model, Kinematics(self.robot))
         self.planner = Planner(self.robot, config.motion, ik, checker)
         self.planner.check_ready()
-        self.rng = np.random.default_rng(config.seed)
+        self.rng = rng if rng is not None else np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
         self.q_cmd = self.planner.ready_q.copy()
         self.results: list[CycleResult] = []
@@ -178,11 +182,34 @@ class Runner:
             "phase": "idle",
             "event": "",
         }
-        #: Called with the phase name before every motion or hold segment runs (a viewer's
-        #: demo mode blocks in it until the user presses Next); it must not touch the cell.
+        #: The plan of the cycle running (or last run); None before the first.
+        self.plan: CyclePlan | None = None
+        #: Called with the phase name before every segment of the cycle's steps runs (the
+        #: plan's moves and grip waits, and the moves back after a missed grip; not the spawn
+        #: and settle holds around them): a viewer's demo mode blocks in it until the user
+        #: presses Next. It must not touch the cell.
         self.on_phase: Callable[[str], None] | None = None
 
     # -- one cycle -----------------------------------------------------------------------
+    def plan_cycle(
+        self, position: FloatArray, spec: TargetSpec, q_start: FloatArray | None = None
+    ) -> CyclePlan:
+        """The whole cycle for the target in play, observed at ``position`` [m]: from
+        ``q_start`` [rad] (default: where the arm is commanded now) to the next drop spot in
+        turn (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+
+        Raises:
+            UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
+                :meth:`~kr210_sim.plan.planner.Planner.plan_cycle`.
+        """
+        return self.planner.plan_cycle(
+            self.q_cmd if q_start is None else q_start,
+            position,
+            spec,
+            self.layout.drop_spots,
+            placed=len(self.targets.in_play) - 1,
+        )
+
     @property
     def events(self) -> list[Event]:
         """What was done to the cylinders between cycles (bin emptied, shelf cleared)."""
@@ -213,9 +240,9 @@ class Runner:
         _, R = self.cell.target_pose(index)
         return float(np.degrees(np.arccos(np.clip(abs(R[2, 2]), 0.0, 1.0))))
 
-    def _enter(self, phase: str) -> None:
+    def _enter(self, phase: str, step: bool = True) -> None:
         self.status["phase"] = phase
-        if self.on_phase is not None:
+        if step and self.on_phase is not None:
             self.on_phase(phase)
 
     def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
@@ -227,12 +254,13 @@ class Runner:
     def _hold(
         self,
         seconds: float,
-        rec: Recording,
+        rec: Recording | None,
         phase: str,
         phases: dict[str, float],
         until: Callable[[Cell], bool] | None = None,
+        step: bool = True,
     ) -> float:
-        self._enter(phase)
+        self._enter(phase, step)
         dt = self.cell.track(hold(self.q_cmd, seconds), rec, phase, until=until)
         phases[phase] = phases.get(phase, 0.0) + dt
         return dt
@@ -243,8 +271,8 @@ class Runner:
         gap = self.robot.finger_gap(cell.finger_q)
         return right and left and abs(gap - 2.0 * radius) < GRIP_GAP_TOLERANCE
 
-    def _close(self, radius: float, rec: Recording, phases: dict[str, float]) -> bool:
-        """Close the gripper until the grip is confirmed or the timeout passes."""
+    def _close(self, radius: float, step: Step, rec: Recording, phases: dict[str, float]) -> bool:
+        """Close the gripper until the grip is confirmed or the step's wait passes."""
         cell = self.cell
         cell.close_gripper()
         settled = 0
@@ -254,8 +282,23 @@ class Runner:
             settled = settled + 1 if abs(c.finger_qd) < GRIP_SETTLED_SPEED else 0
             return settled >= 5 and self._grip_confirmed(radius)
 
-        self._hold(self.config.motion.close_timeout, rec, "grasp", phases, until=done)
+        self._hold(step.wait, rec, step.phase, phases, until=done)
         return self._grip_confirmed(radius)
+
+    def start_cycle(
+        self,
+        index: int,
+        slot: int,
+        rec: Recording | None = None,
+        phases: dict[str, float] | None = None,
+    ) -> tuple[TargetSample, int]:
+        """Start cycle ``index``: draw its target for ``slot``, spawn it and let it settle for
+        :data:`SPAWN_SETTLE` s; the target and its index in the pool."""
+        sample = sample_target(self.rng, self.config, self.layout, slot)
+        self.status.update(cycle=index, slot=slot, phase="spawn")
+        k = self._spawn(sample)
+        self._hold(SPAWN_SETTLE, rec, "spawn", {} if phases is None else phases, step=False)
+        return sample, k
 
     def run_cycle(self, index: int, slot: int) -> CycleResult:
         """Run and score one cycle.
@@ -266,12 +309,9 @@ class Runner:
         """
         wall0 = time.perf_counter()
         cfg, cell = self.config, self.cell
-        sample = sample_target(self.rng, cfg, self.layout, slot)
-        self.status.update(cycle=index, slot=slot, phase="spawn")
-        k = self._spawn(sample)
         rec = Recording()
         phases: dict[str, float] = {}
-        self._hold(SPAWN_SETTLE, rec, "spawn", phases)
+        sample, k = self.start_cycle(index, slot, rec, phases)
         t_start = cell.time
         confirmed, held, released = False, False, False
         failure: Outcome | None = None
@@ -285,53 +325,46 @@ class Runner:
         try:
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
-                position = self.observe_target(k)
                 # The whole cycle is planned (and collision-checked) before the arm moves.
-                t_plan, c_plan = time.perf_counter(), time.process_time()
-                radius, length = sample.spec.radius, sample.spec.length
-                plan = self.planner.plan_grasp(self.q_cmd, position, radius, length)
-                spots = self.layout.drop_spots  # in turn, from the first after the bin is emptied
-                drop = spots[(len(self.targets.in_play) - 1) % len(spots)]
-                carry = self.planner.plan_carry(plan.retreat.q_end, drop, radius, length)
-                self.planner.plan_return(carry.q_end)
-                planning += time.perf_counter() - t_plan
-                planning_cpu += time.process_time() - c_plan
-                self._track(plan.approach_ptp, rec, phases)
-                self._track(plan.approach_lin, rec, phases)
-                confirmed = self._close(sample.spec.radius, rec, phases)
-                if not confirmed:
-                    gap = self.robot.finger_gap(cell.finger_q)
-                    log.info(
-                        "cycle %d: grip not confirmed on attempt %d (finger gap %.1f mm)",
-                        index,
-                        attempts,
-                        gap * 1000,
-                    )
-                    cell.open_gripper()
-                    self._hold(0.3, rec, "grasp", phases)
-                    back = self.planner.lin(
-                        "retreat",
-                        self.q_cmd,
-                        self.planner.kinematics.forward(plan.approach_ptp.q_end),
-                    )
-                    self._track(back, rec, phases)
-                    tilt = self.target_tilt_deg(k)
-                    if tilt > TOPPLED_TILT_DEG:  # no upright cylinder left to re-plan for
-                        break
-                    continue
-                grip_ref = cell.target_in_gripper()
-                i_grip = len(rec)
-                self._track(plan.lift, rec, phases)
-                self._track(plan.retreat, rec, phases)
-            if confirmed:
-                self._track(carry, rec, phases)
-                assert grip_ref is not None
-                held = float(np.linalg.norm(cell.target_in_gripper() - grip_ref)) < LOST_DISTANCE
-                i_release = len(rec)
+                plan = self.plan_cycle(self.observe_target(k), sample.spec)
+                self.plan = plan
+                planning += plan.wall_time
+                planning_cpu += plan.cpu_time
+                for step in plan.steps:
+                    if step.move is not None:
+                        self._track(step.move, rec, phases)
+                    elif step.grip is Grip.CLOSE:
+                        confirmed = self._close(sample.spec.radius, step, rec, phases)
+                        if not confirmed:
+                            break
+                        grip_ref = cell.target_in_gripper()
+                        i_grip = len(rec)
+                    elif step.grip is Grip.OPEN:
+                        assert grip_ref is not None
+                        lost = float(np.linalg.norm(cell.target_in_gripper() - grip_ref))
+                        held = lost < LOST_DISTANCE
+                        i_release = len(rec)
+                        cell.open_gripper()
+                        released = True
+                        self._hold(step.wait, rec, step.phase, phases)
+                if confirmed:
+                    break
+                gap = self.robot.finger_gap(cell.finger_q)
+                log.info(
+                    "cycle %d: grip not confirmed on attempt %d (finger gap %.1f mm)",
+                    index,
+                    attempts,
+                    gap * 1000,
+                )
                 cell.open_gripper()
-                released = True
-                self._hold(cfg.motion.release_wait, rec, "release", phases)
-            self._track(self.planner.plan_return(self.q_cmd), rec, phases)
+                self._hold(0.3, rec, step.phase, phases)
+                standoff = self.planner.kinematics.forward(plan.end_of("standoff"))
+                self._track(self.planner.lin("retreat", self.q_cmd, standoff), rec, phases)
+                tilt = self.target_tilt_deg(k)
+                if tilt > TOPPLED_TILT_DEG:  # no upright cylinder left to re-plan for
+                    break
+            if not confirmed:  # back from the standoff
+                self._track(self.planner.plan_return(self.q_cmd), rec, phases)
         except (UnreachablePoseError, PlanningError) as exc:
             failure, failure_message = plan_failure(exc), str(exc)  # no plan: scored before moving
             log.info("cycle %d: %s", index, failure_message)
@@ -351,6 +384,7 @@ class Runner:
             "settle",
             phases,
             until=lambda c: rest.update(c.target_speed(), c.target_spin()),
+            step=False,
         )
         if not confirmed and tilt <= TOPPLED_TILT_DEG:  # it may have tipped after the last try
             tilt = self.target_tilt_deg(k)

@@ -9,7 +9,8 @@ two things that never touch the physics:
 - :class:`Pacer`, a step hook that publishes the state to the viewer about ``fps`` times a wall
   second and sleeps so simulated time runs at ``speed`` times real time;
 - :class:`DemoGate`, the runner's ``on_phase`` callback: in demo mode it holds the simulation
-  before every phase (approach, grasp, lift, retreat, carry, release, return) until Next.
+  before every phase of the cycle plan (:class:`kr210_sim.plan.cycle.CyclePlan`: approach,
+  grasp, lift, retreat, carry, release, return) until Next.
 
 Joint mode (:func:`run_joints`) has no task: the arm takes the pose of the panel's six sliders
 and the panel shows the gripper pose from the robot's forward kinematics
@@ -44,8 +45,6 @@ from kr210_sim.view.studio import LiveViewer, ViewerClosed, ViewerSettings
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Phases demo mode stops before (the runner's phase names, in cycle order).
-DEMO_PHASES = ("approach", "grasp", "lift", "retreat", "carry", "release", "return")
 #: Viewer updates per wall second.
 DEFAULT_FPS = 60.0
 #: Falling further behind real time than this [s] resets the pace instead of racing to catch up.
@@ -154,8 +153,9 @@ class Pacer:
 class DemoGate:
     """The runner's ``on_phase`` callback in demo mode: wait for Next before every phase.
 
-    Consecutive segments of one phase (the joint-space and straight-line parts of the approach)
-    pause once; spawn and settle do not pause.
+    The runner calls it before every step of the cycle plan (not before the spawn and settle
+    holds), so the phases are the plan's own. Consecutive segments of one phase (the
+    joint-space and straight-line parts of the approach) pause once.
 
     Args:
         wait: Blocks until Next is pressed; called with the phase about to run.
@@ -168,7 +168,7 @@ class DemoGate:
 
     def __call__(self, phase: str) -> None:
         previous, self.last = self.last, phase
-        if phase in DEMO_PHASES and phase != previous:
+        if phase != previous:
             self.paused.append(phase)
             self.wait(phase)
 

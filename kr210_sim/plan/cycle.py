@@ -1,0 +1,127 @@
+"""One pick-and-place cycle as the planner returns it: its steps in order, each in a phase.
+
+:meth:`kr210_sim.plan.planner.Planner.plan_cycle` builds a :class:`CyclePlan`; the runner
+executes it, the Gymnasium expert turns it into actions, ``check`` plans one per slot, ``ik-check``
+takes its poses and view's demo mode stops before each of its phases. A step is an arm move
+(:class:`Move`) or a grip (:class:`Grip`); the phase names are the steps' own, so a new phase is
+one more step in ``plan_cycle`` and nothing else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.plan.trajectory import Trajectory
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Move:
+    """One arm motion of a cycle.
+
+    Attributes:
+        phase: Phase name (approach, lift, retreat, carry, return).
+        kind: "ptp" (joint space) or "lin" (straight line in Cartesian space).
+        trajectory: The time-parametrised joint trajectory.
+    """
+
+    phase: str
+    kind: str
+    trajectory: Trajectory
+
+    @property
+    def q_end(self) -> FloatArray:
+        """Joint state at the end of the move [rad]."""
+        return self.trajectory.sample(self.trajectory.duration)[0]
+
+
+class Grip(StrEnum):
+    """What a grip step does to the gripper."""
+
+    CLOSE = "close"
+    OPEN = "open"
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """One step of a cycle: an arm move or a grip, never both.
+
+    Attributes:
+        phase: Phase name (what the runner records, the video shows, demo mode stops before).
+        move: The arm motion, or None for a grip step.
+        grip: Close or open the gripper, or None for a move.
+        wait: Time a grip step takes [s]: the longest wait for a confirmed grip (close), the
+            wait before the arm leaves (open); 0 for a move.
+        pose: Name of the gripper pose the move ends at ("standoff", "grasp", "lift",
+            "retreat", "drop"); empty for a grip step or a move to a joint state (the return).
+        T: That gripper_link pose (4x4, world frame), or None.
+    """
+
+    phase: str
+    move: Move | None = None
+    grip: Grip | None = None
+    wait: float = 0.0
+    pose: str = ""
+    T: FloatArray | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class CyclePlan:
+    """The whole cycle, planned (and collision-checked) before the arm moves.
+
+    Attributes:
+        steps: The steps in order.
+        drop_spot: Index of the drop spot the carry goes to (0-based, in the cell's order).
+        drop_xy: That drop spot [m].
+        detours: Moves of this plan planned through via points to keep clear of the cell.
+        wall_time: Wall-clock time of the planning [s].
+        cpu_time: CPU time of the planning [s].
+    """
+
+    steps: tuple[Step, ...]
+    drop_spot: int
+    drop_xy: tuple[float, float]
+    detours: int
+    wall_time: float
+    cpu_time: float
+
+    @property
+    def phases(self) -> tuple[str, ...]:
+        """The phase names in order, consecutive repeats once (the approach is two moves)."""
+        out: list[str] = []
+        for step in self.steps:
+            if not out or out[-1] != step.phase:
+                out.append(step.phase)
+        return tuple(out)
+
+    @property
+    def moves(self) -> tuple[Move, ...]:
+        """The arm moves in order."""
+        return tuple(s.move for s in self.steps if s.move is not None)
+
+    def end_of(self, pose: str) -> FloatArray:
+        """Joint state [rad] at the end of the move to the named gripper pose.
+
+        Raises:
+            KeyError: When no move of the plan ends at ``pose``.
+        """
+        for step in self.steps:
+            if step.pose == pose and step.move is not None:
+                return step.move.q_end
+        raise KeyError(f"no move of the cycle ends at the {pose!r} pose")
+
+
+def drop_spot_index(placed: int, n_spots: int) -> int:
+    """The drop spot of the next carry: the spots in turn, from the first after the bin is
+    emptied.
+
+    Args:
+        placed: Targets put in play since the bin was last emptied, this cycle's not counted.
+        n_spots: Drop spots of the cell.
+    """
+    return placed % n_spots

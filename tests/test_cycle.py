@@ -1,0 +1,76 @@
+"""The cycle plan: the whole cycle's steps in order, their phases and the drop spot, planned
+before the arm moves."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.load import load_model
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.plan.cycle import CyclePlan, Grip, drop_spot_index
+from kr210_sim.plan.planner import Planner
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.description import load_robot
+
+
+@pytest.fixture(scope="module")
+def cell() -> tuple[Planner, CellLayout]:
+    return Planner(load_robot(), MotionConfig()), CellLayout.from_model(load_model())
+
+
+def _plan(planner: Planner, layout: CellLayout, slot: int, placed: int = 0) -> CyclePlan:
+    t = layout.target
+    p = layout.slots[slot - 1] + np.array([0.0, 0.0, t.length / 2.0])
+    return planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots, placed)
+
+
+def test_the_plan_is_the_whole_cycle_in_order(cell: tuple[Planner, CellLayout]) -> None:
+    planner, layout = cell
+    plan = _plan(planner, layout, 5)
+    kinds = [(s.phase, s.move.kind if s.move else str(s.grip)) for s in plan.steps]
+    assert kinds == [
+        ("approach", "ptp"),
+        ("approach", "lin"),
+        ("grasp", "close"),
+        ("lift", "lin"),
+        ("retreat", "lin"),
+        ("carry", "ptp"),
+        ("release", "open"),
+        ("return", "ptp"),
+    ]
+    assert plan.phases == ("approach", "grasp", "lift", "retreat", "carry", "release", "return")
+    # the moves chain from the ready pose back to it, each ending at its named gripper pose
+    moves = plan.moves
+    assert np.allclose(moves[0].trajectory.q_start, planner.ready_q, atol=1e-12)
+    assert np.allclose(moves[-1].q_end, planner.ready_q, atol=1e-9)
+    for a, b in itertools.pairwise(moves):
+        assert np.allclose(a.q_end, b.trajectory.q_start, atol=1e-9)
+    posed = [s for s in plan.steps if s.T is not None]
+    assert [s.pose for s in posed] == ["standoff", "grasp", "lift", "retreat", "drop"]
+    for s in posed:
+        assert s.move is not None
+        assert np.allclose(kinematics.forward(s.move.q_end), s.T, atol=1e-6), s.pose
+    assert np.array_equal(plan.end_of("standoff"), moves[0].q_end)
+    with pytest.raises(KeyError, match="no move of the cycle ends at the 'bin' pose"):
+        plan.end_of("bin")
+    m = planner.motion
+    grips = {s.grip: s.wait for s in plan.steps if s.grip is not None}
+    assert grips == {Grip.CLOSE: m.close_timeout, Grip.OPEN: m.release_wait}
+    assert plan.detours == 0 and plan.wall_time > 0 and plan.cpu_time > 0
+
+
+def test_the_drop_spots_are_taken_in_turn(cell: tuple[Planner, CellLayout]) -> None:
+    planner, layout = cell
+    assert [drop_spot_index(i, 3) for i in range(7)] == [0, 1, 2, 0, 1, 2, 0]
+    n = len(layout.drop_spots)
+    for placed in (0, 4, n + 1):
+        plan = _plan(planner, layout, 2, placed)
+        assert plan.drop_spot == placed % n
+        assert plan.drop_xy == tuple(layout.drop_spots[placed % n])
+        carry = next(s for s in plan.steps if s.phase == "carry")
+        expected = planner.drop_pose(layout.drop_spots[placed % n], layout.target.radius)
+        assert carry.T is not None and np.array_equal(carry.T, expected)
