@@ -425,7 +425,7 @@ def replay_job(
         ConfigError: The MP4 path cannot be written or names an input.
         RenderError: Rendering or encoding failed.
     """
-    from kr210_sim.media.render_pool import render_recording
+    from kr210_sim.media.render_pool import frame_indices, render_recording
 
     rec, model, scene = open_recording(recording, scene)
     made: dict[str, Any] = dict(rec.meta.get("video") or {})
@@ -442,7 +442,8 @@ def replay_job(
         {"--video": video.path},
         {"the recording": recording, "--scene": scene if scene is not None else SCENE_PATH},
     )
-    workers = workers if workers is not None else default_workers()
+    # At most one process per core and per frame to draw.
+    workers = capped_workers(workers or default_workers(), len(frame_indices(rec, fps)))
     total = rec.frames if fps == rec.rate else None
 
     def report(frames: int, sim_time: float) -> None:

@@ -178,7 +178,10 @@ def test_workers_share_the_cores_and_a_worker_per_core_rasterises_on_its_own_thr
 
 
 def test_replay_starts_no_more_render_processes_than_cores_or_frames(
-    live: tuple[Path, Path, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    live: tuple[Path, Path, Any],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     import kr210_sim.media.render_pool as render_pool
 
@@ -196,6 +199,7 @@ def test_replay_starts_no_more_render_processes_than_cores_or_frames(
     assert main([*argv, "--width", "96", "--height", "64"]) == 0
     frames = len(_frames(out))
     assert started == [min(default_workers(), frames)]
+    assert f"on {started[0]} worker(s)" in capsys.readouterr().err
     assert capped_workers(64, 3) == min(default_workers(), 3) and capped_workers(1, 0) == 1
 
 

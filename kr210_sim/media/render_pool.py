@@ -519,7 +519,7 @@ def render_recording(
     Raises:
         RenderError: When rendering or encoding failed (no MP4 is written).
     """
-    indices = _frame_indices(recording, settings.fps)
+    indices = frame_indices(recording, settings.fps)
     workers = capped_workers(workers, len(indices))
     pool = RenderPool(model, settings, recording.target_geoms, workers, progress)
     try:
@@ -538,7 +538,7 @@ def render_recording(
         raise
 
 
-def _frame_indices(recording: Recording, fps: int) -> list[int]:
+def frame_indices(recording: Recording, fps: int) -> list[int]:
     """Recorded frame of each video frame at ``fps``.
 
     Video frame ``k`` is due at ``k / fps`` [s]: it shows the first recorded frame due at or after
