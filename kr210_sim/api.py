@@ -34,6 +34,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, TextIO
 
+import numpy as np
+
 from kr210_sim.errors import ConfigError, VideoFailedError
 from kr210_sim.util.interrupts import Interrupted
 from kr210_sim.util.outputs import report_json
@@ -87,10 +89,64 @@ def _path(value: str | Path | None, name: str) -> Path | None:
     return Path(value)
 
 
+def _integer(value: object, name: str) -> int:
+    """``value`` as an ``int``: any whole number (``numpy.int64`` too), never a bool."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(f"{name} must be a whole number, got {value!r}")
+    return int(value)
+
+
 def _whole(value: object, name: str, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+    """``value`` as an ``int`` >= ``low`` (see :func:`_integer`)."""
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, (int, np.integer))
+        or int(value) < low
+    ):
         raise ConfigError(f"{name} must be a whole number >= {low}, got {value!r}")
-    return value
+    return int(value)
+
+
+def _stream(value: object, name: str) -> TextIO | None:
+    """``value`` when it is None or a text stream (has ``write``)."""
+    if value is not None and not callable(getattr(value, "write", None)):
+        raise ConfigError(
+            f"{name} must be a text stream with a write method (e.g. sys.stdout) or None, "
+            f"got {value!r}"
+        )
+    return value  # type: ignore[return-value]
+
+
+def _worker_ik(ik: object, in_process: bool) -> str | None:
+    """The SPEC an evaluation's workers load the IK ``ik`` by (they rebuild it from a string).
+
+    A callable is named ``module:function`` and must come back as the very same function when
+    that SPEC is loaded: a module-level function of an importable module does; one of
+    ``__main__`` does only when the episodes run in this process (one local worker).
+
+    Raises:
+        ConfigError: When the workers could not load it (a lambda, a closure, a method, a
+            function of ``__main__`` with more than one worker or on Ray).
+    """
+    from kr210_sim.errors import IkSpecError
+    from kr210_sim.robot.user_ik import UserIk, ik_from_callable, load_ik
+
+    if ik is None or isinstance(ik, str):
+        return ik
+    user = ik if isinstance(ik, UserIk) else ik_from_callable(ik)  # type: ignore[arg-type]
+    spec = user.spec
+    try:
+        same = load_ik(spec).function is user.function
+    except IkSpecError:
+        same = False
+    if not same or (spec.startswith("__main__:") and not in_process):
+        raise ConfigError(
+            f"evaluate runs its episodes in worker processes that load the IK by a SPEC; "
+            f"{spec} cannot be loaded there (a lambda, a closure, a method, or a function of "
+            "the script itself with workers > 1): pass ik='path/to/file.py:function' or a "
+            "function of an importable module"
+        )
+    return spec
 
 
 # -- results ---------------------------------------------------------------------------------
@@ -276,10 +332,16 @@ def run(
     from kr210_sim.media.video import VideoSettings
     from kr210_sim.sim.runner import RunConfig
 
-    _whole(seed, "seed", 0)
     if not isinstance(randomize, bool):
         raise ConfigError(f"randomize must be True or False, got {randomize!r}")
-    config = RunConfig(cycles=cycles, seed=seed, slot=slot, randomize=randomize)
+    config = RunConfig(
+        cycles=_integer(cycles, "cycles"),
+        seed=_whole(seed, "seed", 0),
+        slot=_integer(slot, "slot"),
+        randomize=randomize,
+    )
+    out = _stream(out, "out")
+    progress = _stream(progress, "progress")
     user_ik = as_user_ik(ik)
     settings: VideoSettings | None
     if video is None or isinstance(video, VideoSettings):
@@ -355,12 +417,20 @@ def evaluate(
     from kr210_sim.eval import evaluate as evaluation
     from kr210_sim.util.outputs import check_writable
 
+    if "ik" in options:
+        in_process = (
+            _whole(workers, "workers", 1) == 1 and options.get("backend", "local") == "local"
+        )
+        options["ik"] = _worker_ik(options["ik"], in_process)
+    if "cell" in options:
+        options["cell"] = _path(options["cell"], "cell")
+    progress = _stream(progress, "progress")
     try:
         config = evaluation.EvalConfig(
-            episodes=episodes,
-            seed=seed,
+            episodes=_whole(episodes, "episodes", 1),
+            seed=_whole(seed, "seed", 0),
             randomize=randomize,
-            workers=workers,
+            workers=_whole(workers, "workers", 1),
             scene=_path(scene, "scene"),
             **options,
         )
@@ -369,7 +439,8 @@ def evaluate(
     report_path = _path(report, "report")
     if report_path is not None:
         check_writable(report_path)
-    load_model(config.scene)  # a bad scene fails here, before any worker starts
+    if config.cell is None:
+        load_model(config.scene)  # a bad scene fails here, before any worker starts
     outcome = evaluation.evaluate(config, report=report_path, progress=progress)
     result = EvalReport(outcome.report, outcome.report_path)
     if outcome.signal is not None:

@@ -123,13 +123,13 @@ def _port(text: str) -> int:
     return value
 
 
-def _add_cell_option(cmd: argparse.ArgumentParser) -> None:
+def _add_cell_option(cmd: argparse.ArgumentParser, instead: str = "--scene") -> None:
     cmd.add_argument(
         "--cell",
         type=Path,
         default=None,
         metavar="PATH",
-        help="cell file (TOML), e.g. scenes/cells/published.toml; compiled instead of --scene",
+        help=f"cell file (TOML), e.g. scenes/cells/published.toml; compiled instead of {instead}",
     )
 
 
@@ -440,7 +440,7 @@ def build_parser() -> argparse.ArgumentParser:
     snap.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
     snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
     snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
-    _add_cell_option(snap)
+    _add_cell_option(snap, "the committed scene")
     snap.set_defaults(func=commands.snapshot)
     return parser
 

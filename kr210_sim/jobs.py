@@ -498,8 +498,16 @@ def snapshot_job(
     height: int = 720,
     cell: Path | None = None,
 ) -> Path:
-    """The ``snapshot`` command: a still of the committed scene, or of ``cell``, as a PNG."""
+    """The ``snapshot`` command: a still of the committed scene, or of ``cell``, as a PNG.
+
+    Raises:
+        ConfigError: ``out`` does not end in ``.png``, cannot be written, or names an input.
+    """
     from kr210_sim.media.render import snapshot
 
+    check_writable(out)
+    check_distinct({"--out": out}, {"--cell": cell, "the scene": SCENE_PATH})
+    if out.suffix.lower() != ".png" and not is_stream(out):
+        raise ConfigError(f"--out {out}: snapshot writes a PNG; give a path ending in .png")
     model = model_for(None, cell) if cell is not None else None
     return snapshot(out, camera=camera, width=width, height=height, model=model)

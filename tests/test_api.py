@@ -93,6 +93,8 @@ def test_a_callable_ik_that_misses_fails_its_cycle_not_the_call() -> None:
         ({"ik": 3}, IkSpecError, "ik must be a SPEC string or a callable"),
         ({"ik": "no_such_module:solve"}, IkSpecError, "no module named 'no_such_module'"),
         ({"report": 3}, ConfigError, "report must be a path (str or Path), got a int"),
+        ({"cycles": True}, ConfigError, "cycles must be a whole number, got True"),
+        ({"out": "stdout"}, ConfigError, "out must be a text stream with a write method"),
     ],
 )
 def test_bad_arguments_raise_the_packages_errors(
@@ -150,6 +152,19 @@ def test_evaluate_wraps_the_evaluation(tmp_path: Path) -> None:
         kr210_sim.evaluate(episodes=0)
     with pytest.raises(ConfigError, match=r"evaluate: .*unexpected keyword argument 'colour'"):
         kr210_sim.evaluate(episodes=1, colour="red")
+
+
+def test_numpy_whole_numbers_are_whole_numbers() -> None:
+    report = kr210_sim.run(cycles=np.int64(1), seed=np.int32(2), slot=np.int64(5))
+    assert report.summary["cycles"] == 1 and report.cycles[0].slot == 5
+
+
+def test_evaluate_takes_a_function_its_workers_can_load() -> None:
+    ours = kr210_sim.evaluate(episodes=1, seed=3, ik=kinematics.nearest)
+    assert ours.summary["successes"] == 1
+    assert ours.data["config"]["ik"] == "kr210_sim.robot.kinematics:nearest"
+    with pytest.raises(ConfigError, match=r"cannot be loaded there .* pass ik='path/to/file\.py"):
+        kr210_sim.evaluate(episodes=1, ik=lambda T, q: kinematics.nearest(T, q))
 
 
 def test_importing_the_package_loads_no_simulation_code() -> None:

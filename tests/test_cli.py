@@ -199,7 +199,7 @@ def test_absurd_cycle_counts_are_refused(capsys: pytest.CaptureFixture[str]) -> 
         (["--report", "{d}/x.mp4", "--video", "{d}/x.mp4"], "--video and --report name the same"),
         (["--report", "{d}/p/cycle_times.png", "--plots", "{d}/p"], "--report name the same"),
         (["--report", "{d}/scene.xml", "--scene", "{d}/scene.xml"], "--report and --scene"),
-        (["--report", "{scene}"], "--report and --scene name the same file"),
+        (["--report", "{scene}"], "kr210_cell.xml is one of kr210_sim's own files"),
     ],
 )
 def test_clashing_outputs_are_refused_before_anything_runs(
@@ -350,6 +350,40 @@ def test_a_bad_gl_backend_stops_only_rendering(tmp_path: Path, gl: str) -> None:
     assert line.startswith("kr210_sim: error: no OpenGL backend") and "Traceback" not in line
     assert f"MUJOCO_GL={gl}" in line and "apt-get install libegl1" in line
     assert not (tmp_path / "s.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["snapshot", "--out", "{scene}"], "is one of kr210_sim's own files"),
+        (["snapshot", "--out", "{d}/mine.toml", "--cell", "{d}/mine.toml"], "--out and --cell"),
+        (["snapshot", "--out", "{d}/x.jpg"], "snapshot writes a PNG; give a path ending in .png"),
+        (
+            ["ik-check", "--ik", "{d}/my_ik.py:solve", "--report", "{d}/my_ik.py"],
+            "--report and --ik",
+        ),
+        (["ik-check", "--ik", "{d}/my_ik.py:solve", "--report", "{kin}"], "kr210_sim's own files"),
+        (["evaluate", "--report", "{urdf}"], "is one of kr210_sim's own files"),
+        (["demos", "--out", "{urdf}"], "is one of kr210_sim's own files"),
+    ],
+)
+def test_no_command_writes_over_an_input(
+    tmp_path: Path, argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.cell.toml import PUBLISHED_CELL
+    from kr210_sim.util.paths import PACKAGE_DIR, SCENE_PATH, URDF_PATH
+
+    mine = tmp_path / "mine.toml"
+    mine.write_text(PUBLISHED_CELL.read_text())
+    user = tmp_path / "my_ik.py"
+    user.write_text("from kr210_sim.robot.kinematics import nearest as solve\n")
+    kin = PACKAGE_DIR / "robot" / "kinematics.py"
+    inputs = {p: p.read_bytes() for p in (mine, user, kin, SCENE_PATH, URDF_PATH)}
+    names = {"d": tmp_path, "scene": SCENE_PATH, "urdf": URDF_PATH, "kin": kin}
+    assert main([a.format(**names) for a in argv]) == 2
+    assert message in _one_line(capsys)
+    assert all(p.read_bytes() == data for p, data in inputs.items())
+    assert not (tmp_path / "x.jpg").exists()
 
 
 def test_the_report_may_not_overwrite_the_ik_file(

@@ -11,7 +11,23 @@ from kr210_sim.errors import ConfigError
 from kr210_sim.eval.stream import EpisodeWriter, episodes_path, read_records
 
 IDENTITY: dict[str, Any] = {"seed": 3, "randomize": True, "scene": None, "versions": {"x": "1"}}
-RECORDS = [{"episode": i, "seed": 10 + i, "success": i != 1} for i in (2, 0, 1)]
+
+
+def _rec(i: int, seed: int, success: bool) -> dict[str, Any]:
+    """An episode record with the fields the summary reads."""
+    return {
+        "episode": i,
+        "seed": seed,
+        "success": success,
+        "reason": None if success else "dropped_in_transit",
+        "grasp_attempts": 1,
+        "max_tracking_error_deg": 0.1,
+        "creep_mm": 1.0,
+        "cycle_time": 20.0,
+    }
+
+
+RECORDS = [_rec(i, 10 + i, i != 1) for i in (2, 0, 1)]
 
 
 def _write(path: Path) -> None:
@@ -37,7 +53,7 @@ def test_appending_continues_the_file(tmp_path: Path) -> None:
     path = tmp_path / "e.episodes.jsonl"
     _write(path)
     with EpisodeWriter(path, IDENTITY, append=True) as w:
-        w.write([{"episode": 3, "seed": 13, "success": True}])
+        w.write([_rec(3, 13, True)])
     assert [r["episode"] for r in read_records(path, IDENTITY)] == [2, 0, 1, 3]
 
 
@@ -59,6 +75,29 @@ def test_a_complete_last_line_without_newline_is_dropped(tmp_path: Path) -> None
     path.write_bytes(whole + b'{"episode": 3}')
     assert len(list(read_records(path, IDENTITY))) == 3
     assert path.read_bytes() == whole
+
+
+@pytest.mark.parametrize(
+    ("line", "problem"),
+    [
+        ({**_rec(3, 13, True), "episode": -1}, "'episode' is -1, not a whole number >= 0"),
+        ({**_rec(3, 13, True), "episode": "3"}, "'episode' is '3', not a whole number >= 0"),
+        ({k: v for k, v in _rec(3, 13, True).items() if k != "episode"}, "no 'episode'"),
+        ([_rec(3, 13, True)], "a JSON list, not an object"),
+    ],
+)
+def test_a_line_that_is_not_an_episode_record_is_an_error_not_skipped(
+    tmp_path: Path, line: Any, problem: str
+) -> None:
+    import json
+
+    path = tmp_path / "e.episodes.jsonl"
+    _write(path)
+    with path.open("a") as fh:
+        fh.write(json.dumps(line) + "\n")
+    with pytest.raises(ConfigError, match=None) as exc:
+        list(read_records(path, IDENTITY))
+    assert f"line 5 is not an episode record ({problem})" in str(exc.value)
 
 
 def test_a_corrupt_middle_line_is_an_error(tmp_path: Path) -> None:

@@ -10,7 +10,11 @@ from __future__ import annotations
 
 import copy
 import functools
+import hashlib
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from kr210_sim.cell.spec import CellConfig
 from kr210_sim.cell.toml import load_cell
@@ -81,3 +85,55 @@ def model_for(scene: Path | None = None, cell: Path | None = None) -> mujoco.MjM
     if cell is not None:
         return copy.copy(compile_cell(load_cell(cell)))
     return load_model(scene)
+
+
+def model_identity(model: mujoco.MjModel) -> str:
+    """The SHA-256 of the compiled model, hex: every array, option and size it holds, but not
+    the file paths it was loaded from.
+
+    Taken of the model as loaded, before a run changes it: the same scene or cell compiled by the
+    same MuJoCo gives the same digest however its file was named (``scenes/kr210_cell.xml``, an
+    absolute path, a copy under ``KR210_SIM_ROOT``) and however the model was built (from an
+    MJCF file, a cell description or a spec), and any change that reaches the compiled model (a
+    moved shelf, another mesh, a restyled material) gives another. MuJoCo's own saved model
+    (``mj_saveModel``) holds the mesh file paths as spelled, so it is not used.
+    """
+    h = hashlib.sha256()
+    for name in _identity_fields(model):
+        value = getattr(model, name)
+        h.update(name.encode())
+        if isinstance(value, np.ndarray):
+            h.update(f"{value.dtype.str}{value.shape}".encode())
+            h.update(np.ascontiguousarray(value).tobytes())
+        else:  # opt, vis, stat: MuJoCo's structs of numbers
+            h.update(_struct_bytes(value))
+    return h.hexdigest()
+
+
+def _identity_fields(model: mujoco.MjModel) -> list[str]:
+    """The model's array and struct attributes that :func:`model_identity` hashes, sorted."""
+    skip = {"paths"}
+    out = []
+    for name in sorted(dir(model)):
+        if name.startswith("_") or name in skip or name.endswith("_pathadr"):
+            continue
+        value = getattr(model, name, None)
+        if isinstance(value, np.ndarray) or name in ("opt", "vis", "stat"):
+            out.append(name)
+    return out
+
+
+def _struct_bytes(value: Any) -> bytes:
+    """The numbers of one of MuJoCo's structs (and its nested structs), as bytes."""
+    parts: list[bytes] = []
+    for name in sorted(dir(value)):
+        if name.startswith("_"):
+            continue
+        v = getattr(value, name)
+        if callable(v):
+            continue
+        if isinstance(v, (int, float, bool, np.ndarray, np.generic)):
+            parts.append(name.encode() + np.asarray(v).tobytes())
+        elif not isinstance(v, (str, bytes)):
+            parts.append(name.encode() + _struct_bytes(v))
+    return b"".join(parts)

@@ -14,7 +14,7 @@ Gymnasium 1.x reads no package entry points (its plugin group was removed in 1.0
 names the environment by a string entry point, so worker processes of
 ``gymnasium.make_vec(..., vectorization_mode="async")`` build it from the spec alone.
 
-Needs the ``gym`` extra: ``pip install 'kr210_sim[gym]'`` (Gymnasium, and h5py for
+Needs the ``gym`` extra (in a clone: ``pip install '.[gym]'``) (Gymnasium, and h5py for
 ``python -m kr210_sim demos``).
 """
 
@@ -24,7 +24,7 @@ try:
     import gymnasium as gym
 except ImportError as exc:  # pragma: no cover - depends on the installation
     raise ModuleNotFoundError(
-        "kr210_sim.envs needs gymnasium: pip install 'kr210_sim[gym]'", name="gymnasium"
+        "kr210_sim.envs needs gymnasium: pip install '.[gym]' (in a clone)", name="gymnasium"
     ) from exc
 
 from kr210_sim.envs.expert import ScriptedExpert

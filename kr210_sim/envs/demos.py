@@ -66,7 +66,9 @@ def _h5py() -> Any:
     try:
         import h5py
     except ImportError:
-        raise ConfigError("demos needs h5py and gymnasium: pip install 'kr210_sim[gym]'") from None
+        raise ConfigError(
+            "demos needs h5py and gymnasium: pip install '.[gym]' (in a clone)"
+        ) from None
     return h5py
 
 
@@ -100,7 +102,7 @@ def record_demos(
 
         from kr210_sim.envs import ENV_ID, ScriptedExpert
     except ImportError:
-        raise ConfigError("demos needs gymnasium: pip install 'kr210_sim[gym]'") from None
+        raise ConfigError("demos needs gymnasium: pip install '.[gym]' (in a clone)") from None
 
     kwargs: dict[str, Any] = {"control": control, "randomize": randomize}
     env = gym.make(ENV_ID, **kwargs)

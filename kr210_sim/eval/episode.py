@@ -29,8 +29,15 @@ _PRISTINE: tuple[str | None, mujoco.MjModel] | None = None
 
 
 def episode_seed(seed: int, index: int) -> int:
-    """The seed of episode ``index`` (0-based) of an evaluation seeded with ``seed``."""
-    return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint32)[0])
+    """The seed of episode ``index`` (0-based) of an evaluation seeded with ``seed``: 128 bits
+    of NumPy's ``SeedSequence([seed, index])``.
+
+    Distinct ``(seed, index)`` pairs give distinct seeds but for a chance of about
+    ``n**2 / 2**129`` in ``n`` episodes (none in any feasible sweep; the 32-bit seeds used
+    before repeated 12 times in 300,000 episodes).
+    """
+    words = np.random.SeedSequence([seed, index]).generate_state(4, np.uint32)
+    return sum(int(w) << (32 * k) for k, w in enumerate(words))
 
 
 def load_pristine(scene: Path | str | None) -> mujoco.MjModel:

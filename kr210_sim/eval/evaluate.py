@@ -66,6 +66,10 @@ class Terminated(Interrupted):
         super().__init__(signal.SIGTERM)
 
 
+#: Most episodes in one evaluation: its done-list takes a byte per episode (100 MB here).
+MAX_EPISODES = 100_000_000
+
+
 @dataclass(frozen=True, slots=True)
 class EvalConfig:
     """Settings of an evaluation.
@@ -100,12 +104,22 @@ class EvalConfig:
     def __post_init__(self) -> None:
         if self.scene is not None and self.cell is not None:
             raise ConfigError("give --scene or --cell, not both (a cell compiles to a scene)")
-        if not isinstance(self.episodes, int) or self.episodes < 1:
-            raise ConfigError(f"episodes must be a whole number >= 1, got {self.episodes!r}")
+        if (
+            not isinstance(self.episodes, int)
+            or isinstance(self.episodes, bool)
+            or not 1 <= self.episodes <= MAX_EPISODES
+        ):
+            raise ConfigError(
+                f"episodes must be a whole number from 1 to {MAX_EPISODES:,}, got {self.episodes!r}"
+            )
         if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
             raise ConfigError(f"workers must be a whole number >= 1, got {self.workers!r}")
-        if self.seed < 0:
-            raise ConfigError(f"seed must be >= 0, got {self.seed!r}")
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ConfigError(f"seed must be a whole number >= 0, got {self.seed!r}")
+        if self.ik is not None and not isinstance(self.ik, str):
+            raise ConfigError(
+                f"ik must be a SPEC string (path/to/file.py:function), got {self.ik!r}"
+            )
         if self.backend not in BACKENDS:
             raise ConfigError(f"backend must be one of {', '.join(BACKENDS)}, got {self.backend!r}")
         if self.ik_timeout is not None and (self.ik is None or not self.ik_timeout > 0):
@@ -242,18 +256,52 @@ class _Bar:
 
 
 def _identity(config: EvalConfig) -> dict[str, Any]:
-    """What the episode records depend on (the episodes file's header)."""
+    """What the episode records depend on (the episodes file's header): the seed, the
+    randomisation, the compiled model's identity (not the path of the scene or cell file: the
+    same file by another path is the same cell, an edited one is another), the IK's function
+    and file content, and the library versions."""
+    from kr210_sim.cell.load import model_for, model_identity
     from kr210_sim.util.versions import versions
 
+    ik: dict[str, Any] = {}
+    if config.ik is not None:
+        from kr210_sim.robot.user_ik import ik_identity
+
+        ik = {"ik": ik_identity(config.ik)}
     return {
         "seed": config.seed,
         "randomize": config.randomize,
-        "scene": str(config.scene) if config.scene else None,
-        **({"cell": str(config.cell)} if config.cell is not None else {}),
-        **({"ik": config.ik} if config.ik is not None else {}),
+        "model_sha256": model_identity(model_for(config.scene, config.cell)),
+        **ik,
         **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
         "versions": versions(),
     }
+
+
+def _check_outputs(config: EvalConfig, report: Path) -> None:
+    """Refuse, before anything runs, a report or episodes file that cannot be written or that
+    would overwrite an input (the scene, the cell file, the IK file, kr210_sim's own files).
+
+    Raises:
+        ConfigError: Naming the clash.
+    """
+    from kr210_sim.robot.user_ik import spec_file
+    from kr210_sim.util.outputs import check_distinct, check_writable, is_stream
+    from kr210_sim.util.paths import SCENE_PATH, URDF_PATH
+
+    check_writable(report)
+    outputs: dict[str, Path | None] = {"--report": report}
+    if not is_stream(report):
+        outputs["its episodes file"] = check_writable(episodes_path(report))
+    check_distinct(
+        outputs,
+        {
+            "--scene": config.scene if config.scene is not None else SCENE_PATH,
+            "--cell": config.cell,
+            "--ik": spec_file(config.ik) if config.ik is not None else None,
+            "the URDF": URDF_PATH,
+        },
+    )
 
 
 def _source(config: EvalConfig) -> Path | None:
@@ -296,6 +344,8 @@ def evaluate(
     from kr210_sim.util.outputs import check_writable
 
     n = config.episodes
+    if report is not None:
+        _check_outputs(config, report)
     identity = _identity(config)
     summary = EpisodeSummary()
     done = bytearray(n)  # 1 where the episode's record is counted: results are keyed by episode
@@ -373,9 +423,18 @@ def evaluate(
 def _read_back(
     path: Path, identity: dict[str, Any], summary: EpisodeSummary, done: bytearray
 ) -> None:
-    """Count the records of an episodes file into ``summary`` and ``done`` (resume)."""
+    """Count the records of an episodes file into ``summary`` and ``done`` (resume).
+
+    Raises:
+        ConfigError: A record whose seed is not its episode's (edited by hand).
+    """
     for record in read_records(path, identity):
         i = record["episode"]
+        if record["seed"] != episode_seed(identity["seed"], i):
+            raise ConfigError(
+                f"cannot resume from {path}: episode {i} has seed {record['seed']}, not this "
+                "evaluation's; run without --resume to start afresh"
+            )
         if i < len(done) and not done[i]:  # a longer earlier evaluation: ignore the rest
             done[i] = 1
             summary.add(record)
@@ -397,7 +456,8 @@ def _report(
             "episodes": config.episodes,
             "seed": config.seed,
             "randomize": config.randomize,
-            "scene": identity["scene"],
+            "scene": str(config.scene) if config.scene else None,
+            "model_sha256": identity["model_sha256"],
             "cell": str(config.cell) if config.cell else None,
             **({"ik": config.ik} if config.ik is not None else {}),
             **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),

@@ -306,6 +306,10 @@ def table(report: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
+#: The plots ``--plots DIR`` writes.
+PLOT_FILES = ("ik_error_histograms.png", "ik_error_workspace.png")
+
+
 def write_plots(out_dir: Path, records: list[dict[str, Any]]) -> list[Path]:
     """Error histograms and error against position in the workspace (PNG); their paths.
 
@@ -358,7 +362,7 @@ def write_plots(out_dir: Path, records: list[dict[str, Any]]) -> list[Path]:
         + (f", {n_none} without an answer)" if n_none else ")")
     )
     fig.tight_layout()
-    save(fig, "ik_error_histograms.png")
+    save(fig, PLOT_FILES[0])
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     xyz = np.array([r["position"] for r in with_q]).reshape(-1, 3)
@@ -374,7 +378,7 @@ def write_plots(out_dir: Path, records: list[dict[str, Any]]) -> list[Path]:
     axes[0].set_title("top view")
     axes[1].set_title("side view (failed cases circled red)")
     fig.colorbar(sc, ax=axes, label="log10 position error [m]")
-    save(fig, "ik_error_workspace.png")
+    save(fig, PLOT_FILES[1])
     return paths
 
 
@@ -416,12 +420,14 @@ def run_check(
     Raises:
         ConfigError: When the report or plot paths cannot be written (checked first).
     """
-    from kr210_sim.util.outputs import check_writable, write_json_atomic
+    from kr210_sim.util.outputs import check_distinct, check_writable, write_json_atomic
 
     if report_path is not None:
         check_writable(report_path)
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():
         raise ConfigError(f"cannot write plots into {plots_dir}: it is a file, not a folder")
+    outputs = {f"--plots {n}": plots_dir / n for n in PLOT_FILES} if plots_dir is not None else {}
+    check_distinct({"--report": report_path, **outputs}, {"--ik": ik.source})
     wall0 = time.perf_counter()
     kin = Kinematics(robot if robot is not None else load_robot())
     cases = fixed_cases(kin) + random_cases(kin, n_random, seed)

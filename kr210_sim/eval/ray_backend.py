@@ -1,6 +1,6 @@
 """The Ray backend: episodes batched into Ray tasks on a cluster, or on a Ray started here.
 
-Ray is an optional extra (``pip install 'kr210_sim[ray]'``); every node needs the same
+Ray is an optional extra (``pip install '.[ray]'`` in a clone); every node needs the same
 kr210_sim, MuJoCo and ruckig (each chunk reports its versions and the driver refuses a mix) and,
 for ``--scene``, the scene at the same path.
 
@@ -35,7 +35,11 @@ CHUNKS_PER_WORKER = 4
 #: Object store of a Ray started by evaluate itself [bytes] (results are a few kB a chunk).
 LOCAL_OBJECT_STORE = 256 * 2**20
 
-INSTALL_HINT = "--backend ray needs Ray: pip install 'kr210_sim[ray]'"
+INSTALL_HINT = (
+    "--backend ray needs Ray: pip install 'ray>=2.50,<3' (in a clone: pip install '.[ray]')"
+)
+#: Seconds to wait for a cluster's address to answer before giving up [s].
+CONNECT_TIMEOUT = 10.0
 
 
 def chunk_size(episodes: int, workers: int) -> int:
@@ -106,6 +110,8 @@ class RayBackend:
         except ImportError:
             raise ConfigError(INSTALL_HINT) from None
         common: dict[str, Any] = {"log_to_driver": False, "logging_level": logging.WARNING}
+        if self.address not in (None, "auto"):
+            probe_address(self.address)
         try:
             if self.address is None:
                 ray.init(
@@ -211,3 +217,27 @@ class RayBackend:
                     )
                 submit()
                 yield out["records"]
+
+
+def probe_address(address: str, timeout: float = CONNECT_TIMEOUT) -> None:
+    """Fail in one line when nothing answers at a cluster's ``HOST:PORT`` (or
+    ``ray://HOST:PORT``) within ``timeout`` [s]: Ray itself retries for minutes.
+
+    Raises:
+        ConfigError: The address is not HOST:PORT, or no connection could be made in time.
+    """
+    import socket
+
+    where = address.removeprefix("ray://")
+    host, sep, port = where.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ConfigError(f"--address {address!r}: expected auto or HOST:PORT")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
+            pass
+    except OSError as exc:
+        why = "no answer" if isinstance(exc, TimeoutError) else exc.strerror or str(exc)
+        raise ConfigError(
+            f"cannot reach the Ray cluster at {address}: {why} within {timeout:g} s; "
+            "is the head node running (ray start --head)?"
+        ) from None

@@ -38,17 +38,50 @@ def _line(obj: dict[str, Any]) -> str:
     return json.dumps(obj, sort_keys=True, allow_nan=False) + "\n"
 
 
+def _whole(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def record_problem(record: Any) -> str:
+    """Why ``record`` is not an episode record (see
+    :func:`kr210_sim.eval.episode.episode_record`), or "" when it is one."""
+    if not isinstance(record, dict):
+        return f"a JSON {type(record).__name__}, not an object"
+    for key, ok, what in (
+        ("episode", _whole, "a whole number >= 0"),
+        ("seed", _whole, "a whole number >= 0"),
+        ("success", lambda v: isinstance(v, bool), "true or false"),
+        ("grasp_attempts", _whole, "a whole number >= 0"),
+        ("max_tracking_error_deg", _number, "a number"),
+        ("creep_mm", _number, "a number"),
+        ("cycle_time", lambda v: v is None or _number(v), "a number"),
+        ("reason", lambda v: v is None or isinstance(v, str), "a text"),
+    ):
+        if key not in record:
+            return f"no {key!r}"
+        if not ok(record[key]):
+            return f"{key!r} is {record[key]!r}, not {what}"
+    return ""
+
+
 def read_records(path: Path, identity: dict[str, Any]) -> Iterator[dict[str, Any]]:
     """The records in the episodes file at ``path``, after checking that it belongs here.
 
-    A last line cut short (the writer was killed mid-line) is removed from the file.
+    A last line cut short (the writer was killed mid-line) is removed from the file; any other
+    line that is not an episode record (:func:`record_problem`: a hand-edited ``"episode": -1``
+    or ``"episode": "3"``, a list) is an error, never skipped.
 
     Args:
         path: The episodes file.
         identity: What the records must depend on (see :func:`header`).
 
     Raises:
-        ConfigError: When the file belongs to another evaluation or a line is corrupt.
+        ConfigError: When the file belongs to another evaluation, a line is corrupt or a line
+            is not an episode record.
     """
     good = 0  # bytes of whole, valid lines
     with path.open("rb") as fh:
@@ -80,6 +113,12 @@ def read_records(path: Path, identity: dict[str, Any]) -> Iterator[dict[str, Any
                     raise ConfigError(f"{path}: line {number} is corrupt")
                 log.warning("%s: dropping line %d, cut short", path, number)
                 break
+            problem = record_problem(record)
+            if problem:
+                raise ConfigError(
+                    f"{path}: line {number} is not an episode record ({problem}); "
+                    "run without --resume to start afresh"
+                )
             good += len(raw)
             yield record
     if path.stat().st_size != good:

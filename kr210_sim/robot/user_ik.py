@@ -56,8 +56,13 @@ class UserIk:
     @property
     def source(self) -> Path | None:
         """The user's file, for a ``file.py:function`` SPEC (None for a module SPEC)."""
-        where = self.spec.rpartition(":")[0]
-        return Path(where) if _is_path(where) else None
+        return spec_file(self.spec)
+
+
+def spec_file(spec: str) -> Path | None:
+    """The file a ``file.py:function`` SPEC names (None for a module SPEC)."""
+    where = spec.rpartition(":")[0]
+    return Path(where) if _is_path(where) else None
 
 
 def describe_exception(exc: BaseException) -> str:
@@ -162,6 +167,32 @@ def load_ik(spec: str) -> UserIk:
     if not callable(fn):
         raise IkSpecError(f"--ik {spec!r}: {where}.{name} is a {type(fn).__name__}, not a function")
     return UserIk(spec, fn)
+
+
+def ik_identity(spec: str) -> dict[str, str | None]:
+    """What an IK's results depend on, whatever the spelling of its SPEC: the function's name
+    and the SHA-256 of the file it is defined in (None when there is no file to read).
+
+    ``my_ik.py:solve``, ``./my_ik.py:solve`` and ``/abs/my_ik.py:solve`` are one IK; an edited
+    file is another.
+    """
+    where, name = split_spec(spec)
+    source: str | None = None
+    if _is_path(where):
+        source = where
+    else:
+        try:
+            found = importlib.util.find_spec(where)
+        except (ImportError, ValueError):
+            found = None
+        source = found.origin if found is not None else None
+    digest = None
+    if source is not None:
+        try:
+            digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
+        except OSError:
+            digest = None
+    return {"function": name, "sha256": digest}
 
 
 def ik_from_callable(fn: Callable[..., Any]) -> UserIk:

@@ -3,9 +3,12 @@
 Every file a command writes goes through here:
 
 * :func:`check_writable` refuses, up front and in one line, a path that cannot be written (a
-  folder, a missing or read-only parent, a block device, a socket).
+  folder, a missing or read-only parent, a block device, a socket) or that names one of
+  kr210_sim's own files (its code, the URDF, the meshes, the scenes and cell files): every
+  command's outputs go through it before anything runs.
 * :func:`check_distinct` refuses two outputs at one path, or an output at the path of an input
-  (the scene, the URDF, a cell file): a typo must never overwrite what a run reads.
+  the user gave (the scene, a cell file, the IK file, a recording): a typo must never overwrite
+  what a run reads.
 * :func:`atomic_path` yields a temporary path beside the destination and moves the finished file
   into place: a failed or interrupted write leaves the destination as it was. The file gets the
   mode a plain ``open`` would give it (the umask's), or keeps the mode of the file it replaces.
@@ -26,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.util.paths import ASSETS_DIR, PACKAGE_DIR, SCENES_DIR
 
 
 def _umask() -> int:
@@ -52,6 +56,21 @@ def is_stream(path: Path | str) -> bool:
     return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
 
 
+def own_file(path: Path | str) -> bool:
+    """Whether ``path`` (after symbolic links) is an existing file of kr210_sim itself: inside
+    the package, the robot's assets or the scenes folder."""
+    try:
+        if not os.path.isfile(path):
+            return False
+        target = Path(os.path.realpath(path))
+    except OSError:  # pragma: no cover - a path the system cannot resolve
+        return False
+    for folder in (PACKAGE_DIR, ASSETS_DIR, SCENES_DIR):
+        if target.is_relative_to(os.path.realpath(folder)):
+            return True
+    return False
+
+
 def check_writable(path: Path | str) -> Path:
     """Fail early, with a one-line message, when ``path`` cannot be written.
 
@@ -64,14 +83,20 @@ def check_writable(path: Path | str) -> Path:
         ``path`` as a :class:`Path`.
 
     Raises:
-        ConfigError: When ``path`` is a folder, a block device or a socket, or its folder is
-            missing and cannot be made, or is not writable.
+        ConfigError: When ``path`` is a folder, a block device or a socket, one of kr210_sim's
+            own files (:func:`own_file`), or its folder is missing and cannot be made, or is not
+            writable.
     """
     p = Path(path)
     if str(path) == "":
         raise ConfigError("an output path is empty")
     if p.is_dir():
         raise ConfigError(f"{p} is a folder; give a file path")
+    if own_file(p):
+        raise ConfigError(
+            f"{p} is one of kr210_sim's own files (its code, URDF, meshes or scenes): "
+            "give another path"
+        )
     if p.exists():
         mode = os.stat(p).st_mode
         if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
