@@ -21,7 +21,7 @@ def _rec(i: int, seed: int, success: bool) -> dict[str, Any]:
         "success": success,
         "reason": None if success else "dropped_in_transit",
         "grasp_attempts": 1,
-        "max_tracking_error_deg": 0.1,
+        "max_tracking_error_deg": [0.1] * 6,
         "creep_mm": 1.0,
         "cycle_time": 20.0,
     }

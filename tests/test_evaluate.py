@@ -308,7 +308,7 @@ def test_resume_compares_the_cell_by_content_not_by_how_its_path_is_spelled(
     again = evaluate(
         EvalConfig(episodes=2, seed=1, cell=Path("mine.toml")), report=report, resume=True
     )
-    assert again.report["execution"]["resumed_episodes"] == 1
+    assert again.report["wall_execution"]["resumed_episodes"] == 1
     assert again.report["summary"]["episodes"] == 2
     # The file edited (the bin moved): another cell, whatever its path; resuming would mix them.
     cell.write_text(

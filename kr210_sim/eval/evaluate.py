@@ -437,7 +437,13 @@ def _read_back(
             )
         if i < len(done) and not done[i]:  # a longer earlier evaluation: ignore the rest
             done[i] = 1
-            summary.add(record)
+            try:
+                summary.add(record)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ConfigError(
+                    f"cannot resume from {path}: the record of episode {i} is damaged "
+                    f"({type(exc).__name__}: {exc}); run without --resume to start afresh"
+                ) from None
     log.info("resuming: %d of %d episodes already done", summary.episodes, len(done))
 
 
