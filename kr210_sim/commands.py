@@ -271,7 +271,7 @@ def evaluate(args: argparse.Namespace) -> int:
         f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
     )
     if args.record_failures is not None and outcome.signal is None:
-        from kr210_sim.media.recording import record_failures
+        from kr210_sim.eval.failures import record_failures
 
         made = record_failures(
             report["failed_episodes"],
