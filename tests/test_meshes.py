@@ -7,7 +7,14 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from kr210_sim.robot.meshes import BUILDERS, MAIN_FINISH, build_meshes, build_parts, mesh_file
+from kr210_sim.robot.meshes import (
+    BUILDERS,
+    MAIN_FINISH,
+    build_meshes,
+    build_parts,
+    collider_points,
+    mesh_file,
+)
 from kr210_sim.util.paths import MESH_DIR
 
 
@@ -54,3 +61,26 @@ def test_gripper_body_and_jaws_stay_in_their_published_boxes() -> None:
     assert np.allclose(
         [both.min(0), both.max(0)], [[-0.075, -0.013, -0.025], [0.075, 0.013, 0.025]], atol=1e-3
     )
+
+
+def test_draw_level_halves_the_triangles_and_colliders_enclose_both_levels() -> None:
+    """The video's meshes carry about half the triangles; each collider's hull holds every
+    vertex of its finish at both drawn levels and stands at most 7 mm proud of the fine hull."""
+    fine_faces = draw_faces = points = fine_points = 0
+    for link in BUILDERS:
+        fine, draw = build_parts(link), build_parts(link, "draw")
+        for finish, pts in collider_points(link).items():
+            hull = trimesh.convex.convex_hull(pts)
+            normals = hull.face_normals
+            offsets = np.einsum("ij,ij->i", normals, hull.vertices[hull.faces[:, 0]])
+            for mesh in (fine[finish], draw[finish]):
+                assert (mesh.vertices @ normals.T - offsets).max() < 1e-6, (link, finish)
+            fine_hull = trimesh.convex.convex_hull(fine[finish].vertices)
+            proud = -trimesh.proximity.signed_distance(fine_hull, pts).min()
+            assert proud < 0.007, (link, finish, proud)
+            points += len(pts)
+            fine_points += len(fine_hull.vertices)
+            fine_faces += len(fine[finish].faces)
+            draw_faces += len(draw[finish].faces)
+    assert draw_faces < 0.6 * fine_faces  # 6,376 of 13,112
+    assert points < 0.4 * fine_points  # 1,224 of 3,280

@@ -10,7 +10,7 @@ import pytest
 
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.load import load_model
-from kr210_sim.cell.mjcf import build_scene
+from kr210_sim.cell.mjcf import build_scene, build_spec
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import published_cell
 from kr210_sim.plan.planner import Planner, grasp_depth, radial_yaw
@@ -177,3 +177,18 @@ def test_hull_colliders_touch_the_cell_but_not_the_targets(model: mujoco.MjModel
 
     assert pairs(hull, board) and not pairs(hull, target)
     assert pairs(target, board)
+
+
+def test_a_planning_build_keeps_the_finer_hulls(model: mujoco.MjModel) -> None:
+    """build_spec(planning=True): the drawn meshes' own hulls, for kinematic checks; the stepped
+    model's light hulls have under half their vertices and also enclose the drawn meshes."""
+    from colliders import stick_out
+
+    fine = build_spec(planning=True).compile()
+
+    def hull_vertices(m: mujoco.MjModel) -> int:
+        hulls = [g for g in range(m.ngeom) if m.geom(g).name.split("_hull")[0] != m.geom(g).name]
+        return sum(int(m.mesh_graph[m.mesh_graphadr[m.geom_dataid[g]]]) for g in hulls)
+
+    assert hull_vertices(model) < 0.5 * hull_vertices(fine)
+    assert max(stick_out(fine).values()) <= 0.005

@@ -384,6 +384,7 @@ def build_spec(
     cell: CellConfig | None = None,
     urdf_path: Path | str = URDF_PATH,
     mesh_dir: Path | str = MESH_DIR,
+    planning: bool = False,
 ) -> mujoco.MjSpec:
     """Build the whole cell as an :class:`mujoco.MjSpec`.
 
@@ -391,6 +392,9 @@ def build_spec(
         cell: Cell layout (defaults to the published cell).
         urdf_path: The KR210 URDF.
         mesh_dir: Folder of the URDF's visual meshes.
+        planning: Give the robot the finest hull colliders (the hulls of the drawn meshes
+            themselves, 3,280 vertices) instead of the stepped model's light ones (1,224, at most
+            7 mm proud of them): a kinematic model for collision checks, not for stepping.
 
     Returns:
         The spec, ready to compile or save.
@@ -441,7 +445,7 @@ def build_spec(
     _add_obstacles(spec, cell.obstacles, static)
     _add_targets(spec, cell)
     _dress(spec, cell, visual, mesh_dir)
-    add_hulls(spec, hull)  # one per finish of each link's mesh
+    add_hulls(spec, hull, fine=planning)  # one per finish of each link's mesh
     add_draw_meshes(spec)
     _add_cell_sites(spec, cell)
     _add_cell_info(spec, cell)

@@ -88,21 +88,27 @@ def look_at(pos: npt.ArrayLike, target: npt.ArrayLike) -> tuple[float, ...]:
     return (*right.round(6).tolist(), *up.round(6).tolist())
 
 
-def add_hulls(spec: mujoco.MjSpec, hull: mujoco.MjsDefault) -> None:
+def add_hulls(spec: mujoco.MjSpec, hull: mujoco.MjsDefault, fine: bool = False) -> None:
     """One hull collider per finish of each link's visual mesh (``<link>_hull`` for the main
     finish, ``<link>_hull_<finish>`` for the others), its points written into the MJCF as a
-    mesh asset of the same name.
+    mesh asset of the same name; with ``fine``, the drawn mesh itself (MuJoCo collides with its
+    convex hull: the tightest convex collider, with about 2.7 times the hull vertices).
 
     Hulls are in class ``hull`` (contype :data:`HULL_BIT`, conaffinity 0): they touch only the
     cell's parts, never the targets, the other links or the primitive colliders, so the grasp's
-    contacts stay those of the fingers' pads and lips.
+    contacts stay those of the fingers' pads and lips. Call after the dressing (it adds the
+    finishes' meshes).
     """
     for link in ROBOT_LINKS:
         body = spec.body(link)
         for finish, points in collider_points(link).items():
             name = f"{link}_hull" if finish == MAIN_FINISH[link] else f"{link}_hull_{finish}"
-            spec.add_mesh(name=name, uservert=np.round(points, 6).ravel().tolist())
-            h = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name)
+            if fine:
+                mesh = link if finish == MAIN_FINISH[link] else f"{link}__{finish}"
+            else:
+                mesh = name
+                spec.add_mesh(name=name, uservert=np.round(points, 6).ravel().tolist())
+            h = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh)
             h.classname = hull
             h.contype, h.conaffinity, h.group, h.density = HULL_BIT, 0, 3, 0.0
 

@@ -437,7 +437,7 @@ class Cell:
             g_pos[k] = xpos_g
             g_mat[k] = xmat_g
             t_pos[k] = xpos_t
-            if nonzero(sensors):  # robot touches a cell part
+            if d.ncon and nonzero(sensors):  # robot touches a cell part
                 contact[k] = True
                 if recording is not None:
                     recording.contact_pairs.update(self.env_contact_pairs())
