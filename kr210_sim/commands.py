@@ -164,9 +164,10 @@ def replay(args: argparse.Namespace) -> int:
 
 def view(args: argparse.Namespace) -> int:
     """``view``: the cycles live in MuJoCo Studio (or a recording, or the joint sliders)."""
+    from kr210_sim.jobs import view_job
     from kr210_sim.score.report import summary_table
     from kr210_sim.sim.runner import RunConfig
-    from kr210_sim.view.live import LiveSettings, run_joints, view_job
+    from kr210_sim.view.live import LiveSettings, run_joints
     from kr210_sim.view.studio import FREE_CAMERA, ViewerSettings, has_display
 
     mode = "window" if args.window else "web" if args.web or not has_display() else "window"

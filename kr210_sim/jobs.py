@@ -1,13 +1,17 @@
 """The jobs behind the commands, as functions the CLI and tests call.
 
-The main one, :func:`run_job`, is what ``python -m kr210_sim run`` does. Order of work: check
-every output path first (a usage error costs nothing: unwritable paths and outputs that clash
-with each other or with an input are refused before anything runs), run the cycles (with the
-state recorders as step hooks: one keeps the states for ``--record``, one feeds the video's
-render pool, so rendering overlaps the simulation), append the closing bin shot, then write the
-report, the recording, finish the video and write the plots. The report is written even when
-the video fails or the run is interrupted (Ctrl-C, SIGTERM): the failure is reported afterwards,
-and an interrupted video keeps the frames of the states simulated so far.
+The main one, :func:`run_job`, is what ``python -m kr210_sim run`` does; :func:`view_job` is
+``view``, the same cycles through the same loop (:func:`kr210_sim.sim.session.run_session`),
+paced to real time in the viewer.
+
+Order of work of a run: check every output path first (a usage error costs nothing: unwritable
+paths and outputs that clash with each other or with an input are refused before anything
+runs), run the cycles (with the state recorders as step hooks: one keeps the states for
+``--record``, one feeds the video's render pool, so rendering overlaps the simulation), append
+the closing bin shot, then write the report, the recording, finish the video and write the
+plots. The report is written even when the video fails or the run is interrupted (Ctrl-C,
+SIGTERM): the failure is reported afterwards, and an interrupted video keeps the frames of the
+states simulated so far.
 
 The others: :func:`replay_job` (``replay``; :func:`open_recording` also serves ``view
 --replay``), :func:`evaluate_job` (``evaluate``'s checks before any worker starts),
@@ -17,7 +21,6 @@ The others: :func:`replay_job` (``replay``; :func:`open_recording` also serves `
 from __future__ import annotations
 
 import sys
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,10 +44,10 @@ from kr210_sim.media.recording import (
 from kr210_sim.media.render_pool import RenderPool, capped_workers, default_workers
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
-from kr210_sim.util.interrupts import signal_name
+from kr210_sim.sim.session import run_session, runner_report
+from kr210_sim.util.interrupts import exit_code, signal_name
 from kr210_sim.util.outputs import (
     check_distinct,
     check_folder,
@@ -60,6 +63,8 @@ import mujoco  # isort: skip
 if TYPE_CHECKING:
     from kr210_sim.eval.evaluate import EvalConfig, EvalOutcome
     from kr210_sim.plan.cellcheck import CellCheck
+    from kr210_sim.view.live import LiveSettings
+    from kr210_sim.view.studio import LiveViewer, ViewerSettings
 
 
 @dataclass
@@ -87,43 +92,6 @@ class JobResult:
     sim_time: float = 0.0
     results: list[CycleResult] = field(default_factory=list)
     record_frames: int = 0
-
-
-def runner_report(
-    runner: Runner, wall_time: float, interrupted: BaseException | bool | None
-) -> dict[str, Any]:
-    """The report of the cycles ``runner`` ran (``run`` and ``view`` alike): its records, events
-    and cell, and the user's IK's call figures when one planned them.
-
-    Args:
-        runner: The runner after its cycles.
-        wall_time: Wall-clock time of the cycles [s].
-        interrupted: The interrupt that stopped them (or True), None/False when they all ran.
-    """
-    report = build_report(
-        runner.config,
-        runner.results,
-        wall_time,
-        interrupted=interrupted,
-        events=runner.events,
-        cell=runner.layout.describe(),
-    )
-    if runner.planner.user_ik is not None:
-        report["summary"]["ik"] = runner.planner.user_ik.summary()
-    return report
-
-
-def run_cycles(
-    runner: Runner, cycles: int, out: TextIO, after: Callable[[int], None] | None = None
-) -> None:
-    """Run cycles 1 to ``cycles`` (each on the slot the run's generator picks), writing each
-    one's line to ``out`` as it ends; ``after(i)`` is called after cycle ``i``'s line."""
-    for i in range(1, cycles + 1):
-        cycle = runner.run_cycle(i, runner.slot_for_cycle())
-        out.write(cycle_line(cycle, cycles) + "\n")
-        out.flush()
-        if after is not None:
-            after(i)
 
 
 def check_outputs(
@@ -262,30 +230,27 @@ def run_job(
             recorders.append(
                 StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
             )
-    runner.cell.hooks.extend(recorders)
 
-    wall0 = time.perf_counter()
-    interrupted: KeyboardInterrupt | None = None
-    try:
-        run_cycles(
-            runner,
-            config.cycles,
-            out,
-            None if progress is None else lambda i: progress.cycle_done(i, runner.cell.time),
-        )
-        if recorders:  # the closing shot: the bin with the cylinders in it
+    def closing_shot() -> None:  # the bin with the cylinders in it
+        if recorders:
             for r in recorders:
                 r.tail = True
             runner.idle(video.tail if video is not None else DEFAULT_TAIL)
-    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.util.interrupts)
-        interrupted = exc
+
+    end = run_session(
+        runner,
+        out,
+        hooks=recorders,
+        after=None if progress is None else lambda i: progress.cycle_done(i, runner.cell.time),
+        closing=closing_shot,
+    )
+    interrupted = end.interrupted if isinstance(end.interrupted, KeyboardInterrupt) else None
+    if interrupted is not None:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.util.interrupts)
         sys.stderr.write(
-            f"kr210_sim: interrupted after {len(runner.results)} cycles ({signal_name(exc)}); "
-            "writing the report of those\n"
+            f"kr210_sim: interrupted after {len(runner.results)} cycles "
+            f"({signal_name(interrupted)}); writing the report of those\n"
         )
-    wall = time.perf_counter() - wall0
-    for r in recorders:
-        runner.cell.hooks.remove(r)
+    wall = end.wall_time
     report = runner_report(runner, wall, interrupted)
     if report_path is not None:
         write_json_atomic(report_path, report)
@@ -511,3 +476,117 @@ def snapshot_job(
         raise ConfigError(f"--out {out}: snapshot writes a PNG; give a path ending in .png")
     model = model_for(None, cell) if cell is not None else None
     return snapshot(out, camera=camera, width=width, height=height, model=model)
+
+
+@dataclass
+class ViewResult:
+    """What a live run produced.
+
+    Attributes:
+        report: The JSON-ready report (as ``run`` writes it).
+        report_path: Where it was written.
+        interrupted: True when Ctrl-C, SIGTERM (or closing the viewer) stopped the run early.
+        exit_code: The exit code the interrupt asks for (130 Ctrl-C, 143 SIGTERM), else 0.
+        real_time_factor: Simulated over wall time while running (demo pauses excluded).
+        frames: Viewer updates sent.
+        paused: Phases demo mode paused before, in order.
+    """
+
+    report: dict[str, Any]
+    report_path: Path
+    interrupted: bool
+    real_time_factor: float
+    frames: int
+    paused: list[str]
+    exit_code: int = 0
+
+
+def view_job(
+    config: RunConfig,
+    report_path: Path,
+    settings: ViewerSettings,
+    live: LiveSettings,
+    out: TextIO | None = None,
+    scene: Path | None = None,
+    on_ready: Callable[[LiveViewer], None] | None = None,
+    ik: UserIk | None = None,
+    cell: Path | None = None,
+) -> ViewResult:
+    """Run ``config.cycles`` cycles live in the viewer and write the report.
+
+    The cycles run as ``run`` runs them (:func:`run_session`), with two hooks that never touch
+    the physics: the pacer (:class:`kr210_sim.view.live.Pacer`) and, in demo mode, the demo
+    gate before every phase of the cycle plan (:class:`kr210_sim.view.live.DemoGate`).
+
+    Args:
+        config: The run's settings (as for ``run``).
+        report_path: JSON report path.
+        settings: Viewer settings.
+        live: Pace and exit behaviour.
+        out: Where the URL, the per-cycle lines and the demo prompts go (stdout).
+        scene: MJCF scene path (default: the committed scene).
+        on_ready: Called with the open viewer before the first cycle (tests press Next with it).
+        ik: A user's IK function to plan with (as ``run --ik``).
+        cell: Cell file (TOML), compiled instead of a scene.
+
+    Returns:
+        The report and the measured pace.
+
+    Raises:
+        ConfigError: An unwritable report path, a busy port, no display for ``--window``.
+        UnservableCellError: A cell none of whose slots can be served (as ``run``).
+    """
+    from kr210_sim.view.live import DemoGate, Pacer, ViewerSession, announce, hold_open
+    from kr210_sim.view.studio import LiveViewer, ViewerClosed
+
+    out = out or sys.stdout
+    check_outputs(report_path, None, None, scene, ik, cell)
+    model = None
+    if scene is not None or cell is not None:
+        model = model_for(scene, cell)
+        refuse_unservable(model)
+    runner = Runner(config, model=model, ik=ik)
+    viewer = LiveViewer(runner.model, settings)
+    try:
+        session = ViewerSession(viewer, runner, out)
+        announce(viewer, settings, out)
+        if on_ready is not None:
+            on_ready(viewer)
+        pacer = Pacer(session.publish, live.speed, live.fps)
+        session.pacer = pacer
+        gate = DemoGate(session.wait_next) if settings.demo else None
+        end = run_session(
+            runner, out, hooks=[pacer], on_phase=gate, stops=(KeyboardInterrupt, ViewerClosed)
+        )
+        pacer.finish()
+        interrupted = end.interrupted
+        if interrupted is not None:
+            why = (
+                f"interrupted ({signal_name(interrupted)})"
+                if isinstance(interrupted, KeyboardInterrupt)
+                else str(interrupted)
+            )
+            sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
+        report = runner_report(
+            runner,
+            end.wall_time,
+            interrupted if isinstance(interrupted, KeyboardInterrupt) else bool(interrupted),
+        )
+        write_json_atomic(report_path, report)
+        result = ViewResult(
+            report,
+            report_path,
+            interrupted is not None,
+            pacer.real_time_factor,
+            pacer.frames,
+            gate.paused if gate is not None else [],
+            exit_code(interrupted) if interrupted is not None else 0,
+        )
+        if not interrupted and not live.exit_when_done:
+            runner.status["phase"] = "done"
+            out.write(f"done; report: {report_path}; the viewer stays open: Ctrl-C to quit\n")
+            out.flush()
+            hold_open(lambda: session.publish(runner.cell))
+        return result
+    finally:
+        viewer.close()

@@ -9,6 +9,7 @@ import pytest
 from kr210_sim.cell.load import model_for
 from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
+from kr210_sim.errors import UnservableCellError
 from kr210_sim.plan.cellcheck import check_cell
 from kr210_sim.sim.runner import RunConfig, Runner
 
@@ -46,6 +47,23 @@ def test_run_refuses_a_cell_no_slot_of_which_can_be_served(
     assert err.strip().splitlines()[-1] == (
         "kr210_sim: error: cell unreachable: no slot can be served (see the table above)"
     )
+
+
+def test_view_refuses_it_too(tmp_path: Path) -> None:
+    from kr210_sim.jobs import view_job
+    from kr210_sim.view.live import LiveSettings
+    from kr210_sim.view.studio import ViewerSettings
+
+    report = tmp_path / "v.json"
+    with pytest.raises(UnservableCellError, match="no slot can be served"):
+        view_job(
+            RunConfig(cycles=1),
+            report,
+            ViewerSettings(),
+            LiveSettings(exit_when_done=True),
+            cell=CELLS / "unreachable.toml",
+        )
+    assert not report.exists()
 
 
 def test_the_column_cell_needs_detours_and_gets_them() -> None:

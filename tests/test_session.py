@@ -1,12 +1,16 @@
-"""One episode's setup: a fresh runner for one cycle with one seed."""
+"""One episode's setup (a fresh runner for one cycle with one seed) and the one cycle loop of
+``run`` and ``view``."""
 
 from __future__ import annotations
+
+import io
 
 import numpy as np
 
 from kr210_sim.cell.load import load_model
+from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig
-from kr210_sim.sim.session import episode_runner
+from kr210_sim.sim.session import episode_runner, run_session
 
 
 def test_an_episode_runs_on_a_copy_of_the_pristine_model() -> None:
@@ -28,3 +32,39 @@ def test_the_seed_or_a_given_generator_draws_the_slot_and_target() -> None:
     assert sa == sb
     c = episode_runner(12, randomize=True)
     assert c.start_cycle(1, c.slot_for_cycle())[0] != sa
+
+
+def test_the_session_runs_the_cycles_with_its_hooks_and_removes_them() -> None:
+    runner = episode_runner(0, slot=5)
+    ticks: list[float] = []
+    phases: list[str] = []
+    after: list[int] = []
+    out = io.StringIO()
+    end = run_session(
+        runner,
+        out,
+        hooks=[lambda cell: ticks.append(cell.time)],
+        on_phase=phases.append,
+        after=after.append,
+        closing=lambda: runner.idle(0.5),
+    )
+    assert end.interrupted is None and end.wall_time > 0
+    assert runner.cell.hooks == [] and runner.on_phase is None
+    assert out.getvalue().startswith("[1/1] slot 5  ok") and after == [1]
+    assert runner.plan is not None  # the gate hook saw every step of the plan, in order
+    assert phases == [s.phase for s in runner.plan.steps]
+    assert ticks[-1] == runner.cell.time  # the closing shot ran under the hooks
+    assert ticks[-1] - runner.results[0].cycle_time > 0.5
+
+
+def test_an_interrupt_ends_the_session_and_is_returned() -> None:
+    runner = episode_runner(0, slot=5)
+
+    def stop(cell: Cell) -> None:
+        if cell.time > 1.0:
+            raise KeyboardInterrupt
+
+    end = run_session(runner, io.StringIO(), hooks=[stop])
+    assert isinstance(end.interrupted, KeyboardInterrupt)
+    assert runner.results == [] and runner.cell.hooks == []
+    assert 1.0 < runner.cell.time < 1.01

@@ -24,7 +24,7 @@ from chromium import ViewProcess, free_port
 
 from kr210_sim.cell.load import load_model
 from kr210_sim.cli import main
-from kr210_sim.jobs import run_job
+from kr210_sim.jobs import run_job, view_job
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import committed
@@ -38,7 +38,6 @@ from kr210_sim.view.live import (
     Pacer,
     joint_readout,
     rpy_deg,
-    view_job,
 )
 from kr210_sim.view.studio import FAST_OFF, LiveViewer, ViewerSettings, free_camera_pose
 

@@ -1,10 +1,8 @@
-"""The ``view`` command: run the cycles live in MuJoCo Studio, or pose the arm with sliders.
+"""The ``view`` command's live side: watch the cycles in MuJoCo Studio, or pose the arm.
 
-Task mode drives the same loop as :func:`kr210_sim.jobs.run_job` (one :class:`Runner`, cycles in
-order, the report built by :func:`kr210_sim.score.report.build_report` and written atomically), so
-the
-report equals that of ``run`` with the same options apart from the ``wall_*`` fields. Watching adds
-two things that never touch the physics:
+Task mode (:func:`kr210_sim.jobs.view_job`) runs the cycles through the loop ``run`` uses
+(:func:`kr210_sim.sim.session.run_session`), so the report equals that of ``run`` with the same
+options apart from the ``wall_*`` fields. Watching adds two hooks that never touch the physics:
 
 - :class:`Pacer`, a step hook that publishes the state to the viewer about ``fps`` times a wall
   second and sleeps so simulated time runs at ``speed`` times real time;
@@ -25,22 +23,17 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.load import load_model, model_for
+from kr210_sim.cell.load import load_model
 from kr210_sim.errors import ConfigError
-from kr210_sim.jobs import check_outputs, run_cycles, runner_report
 from kr210_sim.media.video import overlay_lines
 from kr210_sim.robot.kinematics import Kinematics
-from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.sim.cell import Cell
-from kr210_sim.sim.runner import RunConfig, Runner
-from kr210_sim.util.interrupts import exit_code, signal_name
-from kr210_sim.util.outputs import write_json_atomic
+from kr210_sim.sim.runner import Runner
 from kr210_sim.view.studio import LiveViewer, ViewerClosed, ViewerSettings
 
 FloatArray = npt.NDArray[np.float64]
@@ -173,31 +166,9 @@ class DemoGate:
             self.wait(phase)
 
 
-@dataclass
-class ViewResult:
-    """What a live run produced.
-
-    Attributes:
-        report: The JSON-ready report (as ``run`` writes it).
-        report_path: Where it was written.
-        interrupted: True when Ctrl-C, SIGTERM (or closing the viewer) stopped the run early.
-        exit_code: The exit code the interrupt asks for (130 Ctrl-C, 143 SIGTERM), else 0.
-        real_time_factor: Simulated over wall time while running (demo pauses excluded).
-        frames: Viewer updates sent.
-        paused: Phases demo mode paused before, in order.
-    """
-
-    report: dict[str, Any]
-    report_path: Path
-    interrupted: bool
-    real_time_factor: float
-    frames: int
-    paused: list[str]
-    exit_code: int = 0
-
-
-class _Session:
-    """One viewer plus the runner's status: what is shown, and waiting for Next."""
+class ViewerSession:
+    """One viewer plus the runner's status: what is shown, and waiting for Next (the demo
+    gate's ``wait``)."""
 
     def __init__(self, viewer: LiveViewer, runner: Runner, out: TextIO) -> None:
         self.viewer, self.runner, self.out = viewer, runner, out
@@ -226,93 +197,8 @@ class _Session:
             self.pacer.restart()
 
 
-def view_job(
-    config: RunConfig,
-    report_path: Path,
-    settings: ViewerSettings,
-    live: LiveSettings,
-    out: TextIO | None = None,
-    scene: Path | None = None,
-    on_ready: Callable[[LiveViewer], None] | None = None,
-    ik: UserIk | None = None,
-    cell: Path | None = None,
-) -> ViewResult:
-    """Run ``config.cycles`` cycles live in the viewer and write the report.
-
-    Args:
-        config: The run's settings (as for ``run``).
-        report_path: JSON report path.
-        settings: Viewer settings.
-        live: Pace and exit behaviour.
-        out: Where the URL, the per-cycle lines and the demo prompts go (stdout).
-        scene: MJCF scene path (default: the committed scene).
-        on_ready: Called with the open viewer before the first cycle (tests press Next with it).
-        ik: A user's IK function to plan with (as ``run --ik``).
-        cell: Cell file (TOML), compiled instead of a scene.
-
-    Returns:
-        The report and the measured pace.
-
-    Raises:
-        ConfigError: An unwritable report path, a busy port, no display for ``--window``.
-    """
-    out = out or sys.stdout
-    check_outputs(report_path, None, None, scene, ik, cell)
-    model = model_for(scene, cell) if scene is not None or cell is not None else None
-    runner = Runner(config, model=model, ik=ik)
-    viewer = LiveViewer(runner.model, settings)
-    try:
-        session = _Session(viewer, runner, out)
-        _announce(viewer, settings, out)
-        if on_ready is not None:
-            on_ready(viewer)
-        pacer = Pacer(session.publish, live.speed, live.fps)
-        session.pacer = pacer
-        gate = DemoGate(session.wait_next) if settings.demo else None
-        runner.on_phase = gate
-        runner.cell.hooks.append(pacer)
-        wall0 = time.perf_counter()
-        interrupted: BaseException | None = None
-        try:
-            run_cycles(runner, config.cycles, out)
-        except (KeyboardInterrupt, ViewerClosed) as exc:
-            interrupted = exc
-            why = (
-                f"interrupted ({signal_name(exc)})"
-                if isinstance(exc, KeyboardInterrupt)
-                else str(exc)
-            )
-            sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
-        pacer.finish()
-        runner.cell.hooks.remove(pacer)
-        runner.on_phase = None
-        wall = time.perf_counter() - wall0
-        report = runner_report(
-            runner,
-            wall,
-            interrupted if isinstance(interrupted, KeyboardInterrupt) else bool(interrupted),
-        )
-        write_json_atomic(report_path, report)
-        result = ViewResult(
-            report,
-            report_path,
-            interrupted is not None,
-            pacer.real_time_factor,
-            pacer.frames,
-            gate.paused if gate is not None else [],
-            exit_code(interrupted) if interrupted is not None else 0,
-        )
-        if not interrupted and not live.exit_when_done:
-            runner.status["phase"] = "done"
-            out.write(f"done; report: {report_path}; the viewer stays open: Ctrl-C to quit\n")
-            out.flush()
-            _hold_open(lambda: session.publish(runner.cell))
-        return result
-    finally:
-        viewer.close()
-
-
-def _announce(viewer: LiveViewer, settings: ViewerSettings, out: TextIO) -> None:
+def announce(viewer: LiveViewer, settings: ViewerSettings, out: TextIO) -> None:
+    """Say where the viewer is (its URL, or a native window), warning when it is exposed."""
     if viewer.url:
         out.write(f"viewer: {viewer.url}\n")
         if settings.exposed:
@@ -325,7 +211,7 @@ def _announce(viewer: LiveViewer, settings: ViewerSettings, out: TextIO) -> None
     out.flush()
 
 
-def _hold_open(refresh: Callable[[], None]) -> None:
+def hold_open(refresh: Callable[[], None]) -> None:
     """Keep the viewer live until Ctrl-C or until it is closed."""
     try:
         while True:
@@ -416,8 +302,8 @@ def run_joints(settings: ViewerSettings, out: TextIO | None = None) -> None:
     viewer = LiveViewer(cell.model, settings, joint_limits=limits)
     try:
         pose = JointPose(viewer, cell, planner.kinematics, planner.ready_q)
-        _announce(viewer, settings, out)
-        _hold_open(pose.tick)
+        announce(viewer, settings, out)
+        hold_open(pose.tick)
     finally:
         viewer.close()
 
@@ -473,7 +359,7 @@ def replay_view(
     shown = 0
     interrupted: BaseException | None = None
     try:
-        _announce(viewer, settings, out)
+        announce(viewer, settings, out)
         if on_ready is not None:
             on_ready(viewer)
         wall0 = time.perf_counter()
@@ -493,7 +379,7 @@ def replay_view(
             out.write("replay done; the viewer stays open: Ctrl-C to quit\n")
             out.flush()
             last = recording.status(shown - 1).lines()
-            _hold_open(lambda: viewer.publish(data, last))
+            hold_open(lambda: viewer.publish(data, last))
         return ReplayViewResult(shown, rtf, interrupted)
     finally:
         viewer.close()
