@@ -121,6 +121,7 @@ def test_a_hanging_call_is_a_timeout_and_the_next_call_starts_afresh(tmp_path: P
         q = -Q
         np.testing.assert_array_equal(box(T, q), q)  # a fresh process answers
         assert box.starts == 2
+    assert not box.scratch.exists()  # a scratch folder made by the sandbox goes with it
 
 
 @pytest.mark.parametrize(

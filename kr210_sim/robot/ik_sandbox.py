@@ -251,7 +251,11 @@ class IkSandbox:
         self._proc: subprocess.Popen[bytes] | None = None
         self._fds: tuple[int, int] = (-1, -1)
         self._threads: list[threading.Thread] = []
-        self._finalizer = weakref.finalize(self, IkSandbox._cleanup, {}, None, False)
+        self._finalizer = weakref.finalize(self, IkSandbox._cleanup, {})
+        # A scratch folder made here goes with the sandbox: on close, collection or exit.
+        self._remove_scratch = weakref.finalize(self, shutil.rmtree, self.scratch, True)
+        if not self._own_scratch:
+            self._remove_scratch.detach()  # the caller's folder stays
 
     # ------------------------------------------------------------------ process
     def _environment(self) -> dict[str, str]:
@@ -304,7 +308,7 @@ class IkSandbox:
         self.starts += 1
         self._finalizer.detach()
         self._finalizer = weakref.finalize(
-            self, IkSandbox._cleanup, {"proc": proc, "fds": self._fds}, None, False
+            self, IkSandbox._cleanup, {"proc": proc, "fds": self._fds}
         )
         if self.capture:
             assert proc.stdout is not None and proc.stderr is not None
@@ -403,7 +407,7 @@ class IkSandbox:
 
     # ------------------------------------------------------------------ ending
     @staticmethod
-    def _cleanup(state: dict[str, Any], scratch: Path | None, remove: bool) -> None:
+    def _cleanup(state: dict[str, Any]) -> None:
         proc: subprocess.Popen[bytes] | None = state.get("proc")
         for fd in state.get("fds", ()):
             with contextlib.suppress(OSError):
@@ -413,15 +417,13 @@ class IkSandbox:
                 os.killpg(proc.pid, signal.SIGKILL)
             with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.wait(timeout=5.0)
-        if remove and scratch is not None:
-            shutil.rmtree(scratch, ignore_errors=True)
 
     def close_process(self) -> None:
         """Kill the user's process group (if running) and collect its output threads."""
         if self._proc is None:
             return
         self._finalizer.detach()
-        IkSandbox._cleanup({"proc": self._proc, "fds": self._fds}, None, False)
+        IkSandbox._cleanup({"proc": self._proc, "fds": self._fds})
         self._proc, self._fds = None, (-1, -1)
         for t in self._threads:
             t.join(timeout=5.0)
@@ -430,8 +432,7 @@ class IkSandbox:
     def close(self) -> None:
         """Kill the process and remove the scratch folder when it was made here."""
         self.close_process()
-        if self._own_scratch:
-            shutil.rmtree(self.scratch, ignore_errors=True)
+        self._remove_scratch()
 
     def __enter__(self) -> IkSandbox:
         return self
