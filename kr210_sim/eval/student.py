@@ -31,6 +31,7 @@ from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.session import run_session
 from kr210_sim.util.outputs import write_json_atomic
 
 #: The verdicts, best first (the leaderboard's order).
@@ -186,12 +187,17 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         records = check(kin, ik, cases, io.StringIO())
         record["wall_time_s"]["ik_check"] = time.monotonic() - t
         record["ik_check"] = _ik_figures(records)
-        t = time.monotonic()
         runner = Runner(RunConfig(cycles=job.cycles, seed=job.seed), ik=ik)
-        for i in range(1, job.cycles + 1):
-            stage = f"run, cycle {i}"
-            runner.run_cycle(i, runner.slot_for_cycle())
-        record["wall_time_s"]["run"] = time.monotonic() - t
+        stage = "run, cycle 1"
+
+        def next_cycle(done: int) -> None:
+            nonlocal stage
+            stage = f"run, cycle {done + 1}"
+
+        end = run_session(runner, io.StringIO(), after=next_cycle, stops=(SandboxStop,))
+        if isinstance(end.interrupted, SandboxStop):
+            raise end.interrupted
+        record["wall_time_s"]["run"] = end.wall_time
     except SandboxStop as exc:
         stopped = exc
     finally:
