@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,21 @@ def test_the_missing_offset_is_named_with_its_54_mm(cases: list[Case], no_offset
     found = diagnose(KIN, records, [c.T for c in cases])
     assert found[0].code == "offset_0054"
     assert "54.0 mm from the pose" in found[0].text
+
+
+def test_the_missing_gripper_frame_correction_is_named(cases: list[Case], tmp_path: Path) -> None:
+    from kr210_sim.robot.user_ik import load_ik
+
+    src = (Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py").read_text()
+    line = "    R0_G = T[:3, :3] @ R_CORR"
+    assert src.count(line) == 1
+    path = tmp_path / "ik_no_correction.py"
+    path.write_text(src.replace(line, "    R0_G = T[:3, :3]"))  # the URDF frame taken as DH's
+    spec = f"{path}:solve"
+    records = check(KIN, UserIk(spec, load_ik(spec).function), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
+    assert found[0].code == "gripper_frame"
+    assert found[0].text.startswith("every answer's orientation is off by the same rotation, 180.0")
 
 
 def test_a_fixed_frame_rotation_is_named_with_its_angle(cases: list[Case]) -> None:
