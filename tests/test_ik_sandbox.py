@@ -355,3 +355,12 @@ def test_ik_timeout_needs_ik(capsys: pytest.CaptureFixture) -> None:
 
     assert main(["run", "--ik-timeout", "1", "--cycles", "1"]) == 2
     assert capsys.readouterr().err.strip() == "kr210_sim: error: --ik-timeout needs --ik SPEC"
+
+
+def test_limits_are_checked() -> None:
+    from kr210_sim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="call_timeout must be > 0 s, got 0"):
+        Limits(call_timeout=0)
+    with pytest.raises(ConfigError, match="memory_mb must be at least 256, got 100"):
+        Limits(memory_mb=100)

@@ -52,7 +52,7 @@ from typing import IO, Any, NoReturn
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.errors import IkSpecError
+from kr210_sim.errors import ConfigError, IkSpecError
 from kr210_sim.robot.user_ik import UserIk, load_ik
 
 FloatArray = npt.NDArray[np.float64]
@@ -105,6 +105,9 @@ class Limits:
         call_timeout: Time a call may take before it counts as hanging [s]; None: no limit.
         memory_mb: Address space of the process (RLIMIT_AS) [MB]; None: no limit.
         load_timeout: Time the import of the user's module may take [s].
+
+    Raises:
+        ConfigError: A time limit that is not > 0, or less memory than :data:`MIN_MEMORY_MB`.
     """
 
     call_timeout: float | None = 2.0
@@ -113,9 +116,9 @@ class Limits:
 
     def __post_init__(self) -> None:
         if self.call_timeout is not None and not self.call_timeout > 0:
-            raise ValueError(f"call_timeout must be > 0 s, got {self.call_timeout}")
+            raise ConfigError(f"call_timeout must be > 0 s, got {self.call_timeout}")
         if self.memory_mb is not None and self.memory_mb < MIN_MEMORY_MB:
-            raise ValueError(f"memory_mb must be at least {MIN_MEMORY_MB}, got {self.memory_mb}")
+            raise ConfigError(f"memory_mb must be at least {MIN_MEMORY_MB}, got {self.memory_mb}")
 
 
 class Captured:
