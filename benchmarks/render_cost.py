@@ -16,7 +16,8 @@ import time
 import kr210_sim  # noqa: F401  (chooses MUJOCO_GL=egl before mujoco is imported)
 from kr210_sim.media.render import make_renderer, render_frame
 from kr210_sim.media.video import QUALITY
-from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.runner import Runner
+from kr210_sim.sim.session import episode_runner
 
 import mujoco  # isort: skip
 
@@ -25,7 +26,7 @@ SIZES = ((640, 480), (1280, 720))
 
 def states(n: int) -> tuple[Runner, list[mujoco.MjData]]:
     """``n`` snapshots of the cell's state, 1/30 s of simulated time apart, over one cycle."""
-    runner = Runner(RunConfig(cycles=1, seed=0, slot=5))
+    runner = episode_runner(0, slot=5)
     snaps: list[mujoco.MjData] = []
 
     def grab(cell: object) -> None:

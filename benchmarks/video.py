@@ -33,14 +33,14 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.media.recording import Recording, StateRecorder, read_recording
 from kr210_sim.media.render_pool import FrameRenderer, default_workers, render_recording
 from kr210_sim.media.video import VideoSettings, _Writer
-from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.sim.session import episode_runner
 
 W, H = 640, 480
 
 
 def one_cycle() -> Recording:
     """One cycle's states at 30 Hz."""
-    runner = Runner(RunConfig(cycles=1, seed=0, slot=5))
+    runner = episode_runner(0, slot=5)
     rec = StateRecorder(runner.model, runner.cell.handles.target_geoms, runner.status, 30)
     runner.cell.hooks.append(rec)
     runner.run_cycle(1, 5)

@@ -74,3 +74,22 @@ def test_the_drop_spots_are_taken_in_turn(cell: tuple[Planner, CellLayout]) -> N
         carry = next(s for s in plan.steps if s.phase == "carry")
         expected = planner.drop_pose(layout.drop_spots[placed % n], layout.target.radius)
         assert carry.T is not None and np.array_equal(carry.T, expected)
+
+
+def test_a_cycle_ends_with_the_place_part(cell: tuple[Planner, CellLayout]) -> None:
+    planner, layout = cell
+    plan = _plan(planner, layout, 3, placed=2)
+    place = planner.plan_place(plan.moves[-3].q_end, layout.target, layout.drop_spots, 2)
+    assert place.phases == ("carry", "release", "return") == plan.phases[-3:]
+    assert (
+        (place.drop_spot, place.drop_xy)
+        == (plan.drop_spot, plan.drop_xy)
+        == (
+            2,
+            tuple(layout.drop_spots[2]),
+        )
+    )
+    for a, b in zip(place.steps, plan.steps[-3:], strict=True):
+        assert (a.phase, a.grip, a.wait, a.pose) == (b.phase, b.grip, b.wait, b.pose)
+        if a.move is not None and b.move is not None:
+            assert np.array_equal(a.move.q_end, b.move.q_end)

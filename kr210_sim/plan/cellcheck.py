@@ -134,9 +134,8 @@ def check_cell(
         p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
         planner.plan_cycle(ready, p, t, layout.drop_spots)
 
-    def drop_plan(n: int) -> None:
-        carry = planner.plan_carry(ready, layout.drop_spots[n - 1], t.radius, t.length)
-        planner.plan_return(carry.q_end)
+    def drop_plan(n: int) -> None:  # the place part of a cycle, from the ready pose
+        planner.plan_place(ready, t, layout.drop_spots, placed=n - 1)
 
     slots = tuple(
         _row(f"slot {n}", first, planner, partial(slot_plan, n))

@@ -408,22 +408,57 @@ class Planner:
         """
         t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
         r, length = target.radius, target.length
-        spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
-        spot = drop_spot_index(placed, len(spots))
-        drop = spots[spot]
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r)
         g = self.plan_grasp(q_start, target_position, r, length)
-        carry = self.plan_carry(g.retreat.q_end, drop, r, length)
-        back = self.plan_return(carry.q_end)
-        m = self.motion
+        place = self.plan_place(g.retreat.q_end, target, drop_spots, placed)
         steps = (
             Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
             Step("approach", g.approach_lin, pose="grasp", T=T_grasp),
-            Step("grasp", grip=Grip.CLOSE, wait=m.close_timeout),
+            Step("grasp", grip=Grip.CLOSE, wait=self.motion.close_timeout),
             Step("lift", g.lift, pose="lift", T=T_lift),
             Step("retreat", g.retreat, pose="retreat", T=T_back),
+            *place.steps,
+        )
+        return CyclePlan(
+            steps,
+            place.drop_spot,
+            place.drop_xy,
+            self.detours - detours0,
+            time.perf_counter() - t0,
+            time.process_time() - c0,
+        )
+
+    def plan_place(
+        self,
+        q_start: FloatArray,
+        target: TargetSpec,
+        drop_spots: npt.ArrayLike,
+        placed: int = 0,
+    ) -> CyclePlan:
+        """Plan the place part of a cycle, the target held at ``q_start`` [rad]: carry to the
+        drop spot, release, return to the ready pose (:meth:`plan_cycle` ends with these steps;
+        ``check`` plans each drop spot with them).
+
+        Args:
+            q_start: Arm joint state at the start, holding the target [rad].
+            target: The target's size.
+            drop_spots: The cell's drop spots, shape (n, 2): (x, y) [m].
+            placed: Picks the drop spot (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+
+        Raises:
+            UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
+                :meth:`plan_cycle`.
+        """
+        t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
+        r = target.radius
+        spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
+        spot = drop_spot_index(placed, len(spots))
+        drop = spots[spot]
+        carry = self.plan_carry(q_start, drop, r, target.length)
+        back = self.plan_return(carry.q_end)
+        steps = (
             Step("carry", carry, pose="drop", T=self.drop_pose(drop, r)),
-            Step("release", grip=Grip.OPEN, wait=m.release_wait),
+            Step("release", grip=Grip.OPEN, wait=self.motion.release_wait),
             Step("return", back),
         )
         return CyclePlan(
