@@ -25,6 +25,7 @@ from chromium import ViewProcess, free_port
 from kr210_sim.cell.load import load_model
 from kr210_sim.cli import main
 from kr210_sim.jobs import run_job, view_job
+from kr210_sim.media.video import overlay_lines
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import committed
@@ -110,13 +111,21 @@ def test_pacer_holds_the_speed_and_publishes_once_a_frame() -> None:
 def test_demo_gate_pauses_once_before_every_phase_of_a_cycle() -> None:
     runner = Runner(RunConfig(cycles=1, seed=0))
     waited: list[tuple[str, float]] = []
-    gate = DemoGate(lambda phase: waited.append((phase, runner.cell.time)))
+    shown: list[str] = []  # the panel's phase line while the gate waits
+
+    def wait(phase: str) -> None:
+        waited.append((phase, runner.cell.time))
+        shown.append(overlay_lines(runner.status, runner.cell.time)[1])
+
+    gate = DemoGate(wait)
     runner.on_phase = gate
     runner.run_cycle(1, runner.slot_for_cycle())
     assert runner.plan is not None  # the phases are the cycle plan's, in its order
     phases = ("approach", "grasp", "lift", "retreat", "carry", "release", "return")
     assert runner.plan.phases == phases
     assert [p for p, _ in waited] == list(runner.plan.phases) == gate.paused
+    labels = ["approach", "grasp", "lift", "lift", "carry", "release", "return"]
+    assert shown == [f"phase: {label}" for label in labels]
     # Before each phase runs: the first pause comes right after the 0.1 s spawn settle, and
     # every phase takes simulated time after its pause.
     times = [t for _, t in waited]

@@ -145,19 +145,11 @@ def ffmpeg_exe() -> str:
     return exe
 
 
-#: How the runner's phase names read in the overlay.
+#: How the runner's phase names read in the overlay where they differ from the name (the cycle
+#: plan's phases are its steps' own, :class:`kr210_sim.plan.cycle.CyclePlan`; a new one reads
+#: as its name).
 PHASE_LABELS = {
-    "spawn": "spawn",
-    "approach": "approach",
-    "grasp": "grasp",
-    "lift": "lift",
     "retreat": "lift",
-    "carry": "carry",
-    "release": "release",
-    "return": "return",
-    "settle": "settle",
-    "done": "done",
-    "idle": "idle",
     "bin_emptied": "bin emptied",
     "shelf_cleared": "shelf cleared",
 }
