@@ -113,6 +113,48 @@ def test_no_import_circles() -> None:
     assert not circles, "import circles:\n" + "\n".join(circles)
 
 
+#: Where each part of the package sits in the flow: a module imports only from parts of a lower
+#: rank (or its own part). The package's ``__init__`` is the front door and loads the API on
+#: first use; it is left out.
+FLOW = {
+    "errors": 0,
+    "util": 1,
+    "robot": 2,
+    "cell": 3,
+    "plan": 4,
+    "score": 4,
+    "sim": 5,
+    "media": 6,
+    "eval": 7,
+    "view": 7,
+    "envs": 7,
+    "jobs": 8,
+    "api": 9,
+    "commands": 10,
+    "cli": 11,
+    "__main__": 12,
+}
+
+
+def test_imports_follow_the_flow() -> None:
+    """errors -> util -> robot -> cell -> plan, score -> sim -> media -> eval, view, envs -> jobs
+    -> api -> commands -> cli: no module imports from a part further down the flow or beside it."""
+    modules = _modules()
+    assert {name.split(".")[1] for name in modules if "." in name} == set(FLOW)
+    against = []
+    for name, path in modules.items():
+        if name == "kr210_sim":
+            continue
+        part = name.split(".")[1]
+        for dep in _imports(name, path, modules):
+            if dep == "kr210_sim":
+                continue
+            other = dep.split(".")[1]
+            if other != part and FLOW[other] >= FLOW[part]:
+                against.append(f"{name} -> {dep}")
+    assert not against, "imports against the flow:\n" + "\n".join(sorted(against))
+
+
 def test_cycle_finder_finds_a_circle() -> None:
     graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
     assert _cycles(graph) == [["a", "b", "c"]]
