@@ -86,7 +86,9 @@ def _path(value: str | Path | None, name: str) -> Path | None:
         return None
     if not isinstance(value, (str, Path)):
         raise ConfigError(f"{name} must be a path (str or Path), got a {type(value).__name__}")
-    return Path(value)
+    if str(value) == "":
+        raise ConfigError(f"{name} is an empty path")
+    return Path(value).absolute()  # now: user code may change the working folder later
 
 
 def _integer(value: object, name: str) -> int:

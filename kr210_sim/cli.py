@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError
 from kr210_sim.util.console import SafeStream
-from kr210_sim.util.interrupts import exit_code, signal_name, terminate_as_interrupt
+from kr210_sim.util.interrupts import exit_code, received, signal_name, terminate_as_interrupt
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
@@ -457,7 +458,16 @@ def main(argv: list[str] | None = None) -> int:
     sys.stdout, sys.stderr = SafeStream(stdout, "stdout"), SafeStream(stderr, "stderr")
     try:
         with terminate_as_interrupt():
-            return _main(argv)
+            try:
+                code = _main(argv)
+            except KeyboardInterrupt as exc:  # while parsing (a type's lazy import), say
+                sys.stderr.write(f"kr210_sim: interrupted ({signal_name(exc)})\n")
+                return exit_code(exc)
+            signum = received()
+            if signum is not None and code < 128:  # an interrupt something swallowed
+                sys.stderr.write(f"kr210_sim: interrupted ({signal.Signals(signum).name})\n")
+                return 128 + signum
+            return code
     finally:
         sys.stdout.flush()
         sys.stdout, sys.stderr = stdout, stderr
@@ -471,6 +481,11 @@ def _main(argv: list[str] | None) -> int:
         format="%(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
+    # Every path is resolved now, before any user code runs: an IK that changes the working
+    # folder (os.chdir) must not move where the outputs go or which inputs are read.
+    for key, value in vars(args).items():
+        if isinstance(value, Path):
+            setattr(args, key, value.absolute())
     if getattr(args, "out", "") is None and args.command == "build-scene":
         from kr210_sim.util.paths import SCENES_DIR
 
@@ -478,6 +493,8 @@ def _main(argv: list[str] | None) -> int:
     try:
         return int(args.func(args))
     except Kr210SimError as exc:
+        if received() is not None:  # the error came of an interrupt (main() reports it)
+            return 2
         table = getattr(exc, "table", None)
         if table:
             sys.stderr.write(table + "\n")

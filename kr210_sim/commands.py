@@ -58,7 +58,16 @@ def run(args: argparse.Namespace) -> int:
     from kr210_sim.errors import VideoFailedError
     from kr210_sim.media.video import VideoSettings
 
-    ik = _load_ik(args.ik, args.ik_timeout)  # a bad SPEC is one line here, before anything runs
+    try:  # a bad SPEC is one line here, before anything runs
+        ik = _load_ik(args.ik, args.ik_timeout)
+    except KeyboardInterrupt as exc:  # in the user's module: still a report, of no cycles
+        from kr210_sim.jobs import unstarted
+        from kr210_sim.sim.runner import RunConfig
+        from kr210_sim.util.outputs import check_writable
+
+        config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot)
+        unstarted(config, check_writable(args.report), exc)
+        return exit_code(exc)
     video = None
     given = _video_options(args)
     if args.video is not None:
@@ -351,10 +360,11 @@ def demos(args: argparse.Namespace) -> int:
 
     s = record_demos(args.out, args.episodes, args.seed, args.control, args.randomize)
     sys.stdout.write(
-        f"  episodes   {s.episodes} ({s.successes} succeeded)\n"
+        f"  episodes   {s.episodes}{' (interrupted)' if s.interrupted else ''} "
+        f"({s.successes} succeeded)\n"
         f"  samples    {s.samples} policy steps\n  dataset: {s.path}\n"
     )
-    return 0
+    return exit_code(s.interrupted) if s.interrupted is not None else 0
 
 
 def build_scene(args: argparse.Namespace) -> int:

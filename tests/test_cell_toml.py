@@ -74,6 +74,14 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             PUBLISHED + "\n[[obstacles]]\nposition = [0.3, 0.0, 0.5]\nsize = [0.2, 0.2, 1.0]\n",
             "[[obstacles]] #1 position: expected the box clear of the robot's base",
         ),
+        (  # an obstacle that fills the bin: every cycle would end missed_bin
+            PUBLISHED + "\n[[obstacles]]\nposition = [0.0, 2.5, 0.5]\nsize = [0.7, 0.7, 0.9]\n",
+            "[[obstacles]] #1 position: expected the box out of the bin's inside",
+        ),
+        (  # a box standing in the shelf's slots
+            PUBLISHED + "\n[[obstacles]]\nposition = [2.6, 0.0, 1.0]\nsize = [0.2, 0.2, 0.2]\n",
+            "[[obstacles]] #1 position: expected the box out of the shelf",
+        ),
         (
             _with("row_pitch = [0.767, 0.766]", "row_pitch = [0.767]"),
             "[shelf] row_pitch: expected a positive number or a list of 2",

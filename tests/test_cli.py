@@ -271,6 +271,19 @@ def test_long_runs_keep_no_per_tick_recordings(tmp_path: Path) -> None:
     ]
 
 
+def test_empty_gl_variable_counts_as_unset() -> None:
+    """``MUJOCO_GL=`` (set but empty) is no backend's name: the default (egl without a display)
+    is chosen, and rendering works."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "PYOPENGL_PLATFORM")}
+    probe = "import os; from kr210_sim.util import gl; "
+    probe += "print(os.environ['MUJOCO_GL'], gl.GL_IMPORT_ERROR)"
+    proc = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True,
+        env={**env, "MUJOCO_GL": ""}, check=False,
+    )  # fmt: skip
+    assert proc.stdout == "egl None\n", proc.stderr
+
+
 def test_empty_root_variable_counts_as_unset(tmp_path: Path) -> None:
     """``KR210_SIM_ROOT=`` (set but empty) is not the current folder."""
     env = {**os.environ, "KR210_SIM_ROOT": ""}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -61,3 +62,34 @@ def test_demos_refuses_an_unwritable_path(
     assert main(["demos", "--episodes", "1", "--out", str(blocker / "d.hdf5")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("kr210_sim: error: ") and len(err.strip().splitlines()) == 1
+
+
+def test_an_interrupted_recording_keeps_the_episodes_that_finished(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    ctrl_c_on_call: Any,
+) -> None:
+    from kr210_sim.envs import demos
+
+    monkeypatch.setattr(demos, "_run_episode", ctrl_c_on_call(demos._run_episode, 3))
+    out = tmp_path / "demos.hdf5"
+    assert main(["demos", "--episodes", "5", "--out", str(out)]) == 130
+    captured = capsys.readouterr()
+    assert "episodes   2 (interrupted)" in captured.out
+    assert "interrupted after 2 episodes (SIGINT); writing those" in captured.err
+    with h5py.File(out) as f:
+        data = f["data"]
+        assert sorted(data.keys()) == ["demo_0", "demo_1"]
+        assert data.attrs["episodes"] == 2 and bool(data.attrs["interrupted"])
+        assert data.attrs["total"] == sum(data[d].attrs["num_samples"] for d in data)
+
+
+def test_a_seed_beyond_64_bits_is_refused_before_any_episode(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "demos.hdf5"
+    assert main(["demos", "--episodes", "2", "--seed", str(2**64), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "seed must be a whole number from 0 to 2**63 - episodes" in err
+    assert err.count("\n") == 1 and not out.exists()

@@ -200,3 +200,15 @@ def test_fixed_cases_only(tmp_path: Path) -> None:
     assert result.report["summary"]["cases"] == 65
     assert math.isfinite(result.report["summary"]["wall_time_s"]["per_call_max"])
     assert json.loads((tmp_path / "r.json").read_text())["summary"]["cases"] == 65
+
+
+def test_an_absurd_number_of_cases_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["ik-check", "--ik", "kr210_sim.robot.kinematics:nearest", "--cases", "1000000000"]
+    assert main([*argv, "--report", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == "kr210_sim: error: cases must be a whole number from 0 to 1,000,000, got 1000000000\n"
+    )

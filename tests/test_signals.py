@@ -129,3 +129,71 @@ def test_deferred_holds_an_interrupt_until_the_step_is_done() -> None:
     finally:
         signal.signal(signal.SIGINT, previous)
     assert steps[-1] == "again"
+
+
+def _ik_that_signals(folder: Path, swallow: bool) -> str:
+    """An IK module whose import sends this process SIGTERM, inside a catch-all when
+    ``swallow`` (as an import that catches everything does)."""
+    path = folder / "signals_ik.py"
+    send = "os.kill(os.getpid(), signal.SIGTERM)\ntime.sleep(0.5)"
+    if swallow:
+        send = "try:\n    " + send.replace("\n", "\n    ") + "\nexcept BaseException:\n    pass"
+    path.write_text(
+        "import os, signal, time\n"
+        f"{send}\n"
+        "from kr210_sim.robot.kinematics import nearest as solve\n"
+    )
+    return f"{path}:solve"
+
+
+@pytest.mark.parametrize("swallow", [True, False])
+def test_sigterm_during_start_up_stops_the_run_and_writes_a_report_of_no_cycles(
+    tmp_path: Path, swallow: bool
+) -> None:
+    report = tmp_path / "run.json"
+    args = ["--cycles", "3", "--ik", _ik_that_signals(tmp_path, swallow), "--report", str(report)]
+    proc = _start(args, tmp_path)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, (out, err)
+    assert "Traceback" not in err and "SIGTERM" in err
+    assert "[ 1/" not in out  # no cycle ran
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True and data["interrupted_by"] == "SIGTERM"
+    assert data["summary"]["cycles"] == 0
+
+
+@pytest.mark.render
+def test_sigint_to_the_process_alone_during_a_video_stops_it(tmp_path: Path) -> None:
+    """`timeout -s INT` and supervisors signal the process, not its group: the render
+    workers go on, the main process must still stop and keep what finished."""
+    report, video = tmp_path / "run.json", tmp_path / "run.mp4"
+    args = ["--cycles", "40", "--report", str(report), "--video", str(video)]
+    video_args = ["--width", "160", "--height", "128", "--fps", "5", "--quality", "fast"]
+    proc = _start([*args, *video_args], tmp_path)
+    _first_cycle(proc)
+    proc.send_signal(signal.SIGINT)  # to the process alone
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    data = json.loads(report.read_text())
+    assert data["interrupted_by"] == "SIGINT" and 1 <= data["summary"]["cycles"] < 40
+
+
+def test_an_ik_that_closes_stdout_and_changes_folder_loses_no_output(tmp_path: Path) -> None:
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (tmp_path / "rude_ik.py").write_text(
+        "import os, sys\n"
+        "from kr210_sim.robot.kinematics import nearest\n"
+        "def solve(T, q_ref):\n"
+        f"    os.chdir({str(elsewhere)!r})\n"
+        "    sys.stdout.close()\n"
+        "    return nearest(T, q_ref)\n"
+    )
+    args = ["--cycles", "2", "--slot", "5", "--ik", "rude_ik.py:solve", "--report", "out/run.json"]
+    proc = _start(args, tmp_path)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    data = json.loads((tmp_path / "out" / "run.json").read_text())  # where it was asked for
+    assert data["summary"]["successes"] == 2
+    assert list(elsewhere.iterdir()) == []

@@ -371,6 +371,20 @@ def _check_layout(path: Path, cell: CellConfig) -> None:
                 f"{path}: [[obstacles]] #{i} position: expected a box above the floor, got "
                 f"{list(o.position)!r}"
             )
+        top = o.position[2] + o.size[2] / 2.0
+        b = cell.bin
+        inside = (b.position, b.inner_half, 0.0)
+        if bottom < b.size[2] and top > b.floor_top and _overlap(rect, inside):
+            raise ConfigError(
+                f"{path}: [[obstacles]] #{i} position: expected the box out of the bin's inside "
+                f"(a cylinder dropped there must reach the bin's floor), got position "
+                f"{list(o.position)!r} size {list(o.size)!r}"
+            )
+        if bottom < cell.shelf.height and _overlap(rect, shelf):
+            raise ConfigError(
+                f"{path}: [[obstacles]] #{i} position: expected the box out of the shelf (its "
+                f"slots must stay free), got position {list(o.position)!r} size {list(o.size)!r}"
+            )
         if bottom < ROBOT_BASE_HEIGHT and _hits_base(rect):
             raise ConfigError(
                 f"{path}: [[obstacles]] #{i} position: expected the box clear of the robot's base "

@@ -35,6 +35,8 @@ from typing import Any, TextIO
 import numpy as np
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.util.interrupts import check as check_interrupt
+from kr210_sim.util.interrupts import deferred, signal_name
 from kr210_sim.util.outputs import atomic_path, check_writable
 from kr210_sim.util.progress import ProgressLine, bar
 
@@ -54,12 +56,15 @@ class DemoSummary:
         episodes: Episodes recorded.
         successes: Episodes that succeeded.
         samples: Steps in all episodes.
+        interrupted: The interrupt (Ctrl-C, SIGTERM) that stopped the recording early, or None:
+            the file then holds the episodes that finished.
     """
 
     path: Path
     episodes: int
     successes: int
     samples: int
+    interrupted: KeyboardInterrupt | None = None
 
 
 def _h5py() -> Any:
@@ -82,8 +87,12 @@ def record_demos(
 ) -> DemoSummary:
     """Run the scripted expert for ``episodes`` episodes and write them to ``path``.
 
+    Ctrl-C or SIGTERM stops the recording after the episode in progress is dropped: the file
+    holds the episodes that finished (``data`` attribute ``interrupted`` true), as ``run`` and
+    ``evaluate`` keep theirs, and the summary's ``interrupted`` is set.
+
     Args:
-        path: HDF5 file to write (atomically: an interrupted recording leaves no file).
+        path: HDF5 file to write (atomically: it appears whole, or not at all).
         episodes: Episodes (>= 1).
         seed: Episode ``i`` is reset with ``seed + i``.
         control: The environment's control mode (``joint`` or ``cartesian``).
@@ -95,6 +104,11 @@ def record_demos(
     """
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ConfigError(f"episodes must be a whole number >= 1, got {episodes!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= 2**63 - episodes:
+        raise ConfigError(
+            f"seed must be a whole number from 0 to 2**63 - episodes (each episode's seed is "
+            f"stored as a 64-bit integer in the dataset), got {seed!r}"
+        )
     h5py = _h5py()
     out = check_writable(path)
     try:
@@ -116,57 +130,93 @@ def record_demos(
     with atomic_path(out, ".hdf5") as tmp, h5py.File(tmp, "w") as f:
         group = f.create_group("data")
         names = []
+        done = 0
+        interrupted: KeyboardInterrupt | None = None
         for i in range(episodes):
-            obs, info = env.reset(seed=seed + i)
-            rec: dict[str, list[Any]] = {"actions": [], "rewards": [], "dones": [], "states": []}
-            o_list: dict[str, list[Any]] = {k: [] for k in OBS_KEYS}
-            n_list: dict[str, list[Any]] = {k: [] for k in OBS_KEYS}
-            while True:
-                mujoco.mj_getState(model, data, state, spec)
-                rec["states"].append(state.copy())
-                action = expert(obs)
-                for k in OBS_KEYS:
-                    o_list[k].append(obs[k])
-                obs, reward, terminated, truncated, info = env.step(action)
-                for k in OBS_KEYS:
-                    n_list[k].append(obs[k])
-                rec["actions"].append(action)
-                rec["rewards"].append(reward)
-                rec["dones"].append(terminated or truncated)
-                if terminated or truncated:
-                    break
-            name = f"demo_{i}"
-            demo = group.create_group(name)
-            for k in OBS_KEYS:
-                demo.create_dataset(f"obs/{k}", data=np.asarray(o_list[k]))
-                demo.create_dataset(f"next_obs/{k}", data=np.asarray(n_list[k]))
-            demo.create_dataset("actions", data=np.asarray(rec["actions"], dtype=np.float32))
-            demo.create_dataset("rewards", data=np.asarray(rec["rewards"], dtype=np.float64))
-            demo.create_dataset("dones", data=np.asarray(rec["dones"], dtype=np.uint8))
-            demo.create_dataset("states", data=np.asarray(rec["states"]))
-            success = bool(info["is_success"])
-            target = env.unwrapped.target  # type: ignore[attr-defined]
-            demo.attrs.update(
-                num_samples=len(rec["actions"]),
-                seed=seed + i,
-                success=success,
-                slot=target.slot,
-                target=json.dumps({**asdict(target), "spec": asdict(target.spec)}),
-            )
-            successes += success
-            samples += len(rec["actions"])
-            if success:
-                names.append(name)
+            try:
+                check_interrupt()
+                run = _run_episode(env, expert, model, data, state, spec, seed + i)
+                with deferred():  # an episode is written whole (an interrupt lands after)
+                    success, steps = _write_episode(group, f"demo_{i}", run, seed + i, env)
+                    successes += success
+                    samples += steps
+                    done += 1
+                    if success:
+                        names.append(f"demo_{i}")
+            except KeyboardInterrupt as exc:  # keep what finished, as run and evaluate do
+                interrupted = exc
+                line.end()
+                sys.stderr.write(
+                    f"kr210_sim: interrupted after {done} episodes ({signal_name(exc)}); "
+                    "writing those\n"
+                )
+                break
             if line.due() or i + 1 == episodes:
                 line.show(f"demos {bar((i + 1) / episodes)} {i + 1}/{episodes} episodes")
         line.end()
         env_args = {"env_name": ENV_ID, "type": "gymnasium", "env_kwargs": kwargs}
-        group.attrs.update(
-            total=samples,
-            env_args=json.dumps(env_args),
-            episodes=episodes,
-            successes=successes,
-        )
-        f.create_dataset("mask/successful", data=np.array(names, dtype="S"))
+        try:
+            with deferred():  # the file's index is written whole, then the file committed
+                group.attrs.update(
+                    total=samples,
+                    env_args=json.dumps(env_args),
+                    episodes=done,
+                    successes=successes,
+                    interrupted=interrupted is not None,
+                )
+                f.create_dataset("mask/successful", data=np.array(names, dtype="S"))
+        except KeyboardInterrupt as exc:
+            interrupted = interrupted or exc
     env.close()
-    return DemoSummary(out, episodes, successes, samples)
+    return DemoSummary(out, done, successes, samples, interrupted)
+
+
+def _write_episode(
+    group: Any, name: str, run: tuple[Any, ...], seed: int, env: Any
+) -> tuple[bool, int]:
+    """Write one episode's datasets and attributes as ``group/name``; returns (success,
+    steps)."""
+    rec, o_list, n_list, info = run
+    demo = group.create_group(name)
+    for k in OBS_KEYS:
+        demo.create_dataset(f"obs/{k}", data=np.asarray(o_list[k]))
+        demo.create_dataset(f"next_obs/{k}", data=np.asarray(n_list[k]))
+    demo.create_dataset("actions", data=np.asarray(rec["actions"], dtype=np.float32))
+    demo.create_dataset("rewards", data=np.asarray(rec["rewards"], dtype=np.float64))
+    demo.create_dataset("dones", data=np.asarray(rec["dones"], dtype=np.uint8))
+    demo.create_dataset("states", data=np.asarray(rec["states"]))
+    success = bool(info["is_success"])
+    target = env.unwrapped.target
+    demo.attrs.update(
+        num_samples=len(rec["actions"]),
+        seed=seed,
+        success=success,
+        slot=target.slot,
+        target=json.dumps({**asdict(target), "spec": asdict(target.spec)}),
+    )
+    return success, len(rec["actions"])
+
+
+def _run_episode(
+    env: Any, expert: Any, model: Any, data: Any, state: Any, spec: Any, seed: int
+) -> tuple[dict[str, list[Any]], dict[str, list[Any]], dict[str, list[Any]], dict[str, Any]]:
+    """One episode of the expert from ``env.reset(seed=seed)``: its records (actions, rewards,
+    dones, states), observations, next observations and last info."""
+    obs, info = env.reset(seed=seed)
+    rec: dict[str, list[Any]] = {"actions": [], "rewards": [], "dones": [], "states": []}
+    o_list: dict[str, list[Any]] = {k: [] for k in OBS_KEYS}
+    n_list: dict[str, list[Any]] = {k: [] for k in OBS_KEYS}
+    while True:
+        mujoco.mj_getState(model, data, state, spec)
+        rec["states"].append(state.copy())
+        action = expert(obs)
+        for k in OBS_KEYS:
+            o_list[k].append(obs[k])
+        obs, reward, terminated, truncated, info = env.step(action)
+        for k in OBS_KEYS:
+            n_list[k].append(obs[k])
+        rec["actions"].append(action)
+        rec["rewards"].append(reward)
+        rec["dones"].append(terminated or truncated)
+        if terminated or truncated:
+            return rec, o_list, n_list, info

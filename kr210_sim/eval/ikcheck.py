@@ -306,6 +306,8 @@ def table(report: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
+#: Most random poses in one check (each keeps its record in memory and in the report).
+MAX_RANDOM_CASES = 1_000_000
 #: The plots ``--plots DIR`` writes.
 PLOT_FILES = ("ik_error_histograms.png", "ik_error_workspace.png")
 
@@ -422,6 +424,10 @@ def run_check(
     """
     from kr210_sim.util.outputs import check_distinct, check_writable, write_json_atomic
 
+    if not 0 <= n_random <= MAX_RANDOM_CASES:
+        raise ConfigError(
+            f"cases must be a whole number from 0 to {MAX_RANDOM_CASES:,}, got {n_random!r}"
+        )
     if report_path is not None:
         check_writable(report_path)
     if plots_dir is not None and plots_dir.exists() and not plots_dir.is_dir():

@@ -27,6 +27,7 @@ from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner
+from kr210_sim.util.interrupts import check as check_interrupt
 
 import mujoco  # isort: skip
 
@@ -117,6 +118,7 @@ def run_session(
     interrupted: BaseException | None = None
     try:
         for i in range(1, cycles + 1):
+            check_interrupt()  # a signal whose exception was swallowed (see util.interrupts)
             cycle = runner.run_cycle(i, runner.slot_for_cycle())
             out.write(cycle_line(cycle, cycles) + "\n")
             out.flush()

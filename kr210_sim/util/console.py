@@ -4,7 +4,8 @@
 fails every write. Neither is a reason to lose a run: the report is the product, the console
 lines are a courtesy. :class:`SafeStream` wraps ``sys.stdout`` / ``sys.stderr`` for the CLI:
 the first failed write points the file descriptor at ``/dev/null`` (so the interpreter's own
-flush at exit is quiet too), later writes are dropped, and the run goes on. A broken pipe is
+flush at exit is quiet too), later writes are dropped, and the run goes on; so are writes after
+a user's code closed the stream (``sys.stdout.close()``). A broken pipe is
 silent (what ``head`` expects); any other write error is said once on stderr.
 """
 
@@ -66,6 +67,15 @@ class SafeStream:
         except OSError as exc:
             self._fail(exc)
             return len(text)
+        except ValueError:  # the stream was closed (by a user's code): drop the output
+            self.failed = OSError(errno.EBADF, "closed")
+            return len(text)
+
+    def close(self) -> None:
+        """A user's code closing stdout: later output is dropped, the run and its reports go on
+        (the interpreter closes the real stream at exit)."""
+        self.flush()
+        self.failed = self.failed or OSError(errno.EBADF, "closed")
 
     def flush(self) -> None:
         """Flush; after a failure, do nothing."""

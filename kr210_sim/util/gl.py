@@ -14,10 +14,12 @@ import sys
 
 #: True when kr210_sim chose MUJOCO_GL after mujoco was already imported (too late to count).
 GL_CHOSEN_LATE = False
-if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "egl"
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    GL_CHOSEN_LATE = "mujoco" in sys.modules
+if not os.environ.get("MUJOCO_GL", "").strip():  # unset, or set to nothing: not a choice
+    os.environ.pop("MUJOCO_GL", None)
+    if not os.environ.get("DISPLAY"):
+        os.environ["MUJOCO_GL"] = "egl"
+        os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+        GL_CHOSEN_LATE = "mujoco" in sys.modules
 
 #: Why mujoco's OpenGL backend could not be imported (``"<type>: <message>"``), or None.
 GL_IMPORT_ERROR: str | None = None
@@ -66,7 +68,13 @@ def _log_mujoco_warning(message: str) -> None:
 
 
 if "mujoco" not in sys.modules:  # else whoever imported mujoco first keeps their handlers
-    GL_IMPORT_ERROR = _import_mujoco()
+    from kr210_sim.util.interrupts import deferred
+
+    # Ctrl-C is held during the import and acted on after it: raised inside mujoco's extension
+    # modules it became "ImportError: initialization failed", taken for a missing OpenGL
+    # library, and the interrupt was lost (the command then ran to the end).
+    with deferred():
+        GL_IMPORT_ERROR = _import_mujoco()
     import mujoco
 
     mujoco.set_mju_user_warning(_log_mujoco_warning)

@@ -1,10 +1,16 @@
 """Termination signals handled like Ctrl-C: stop the work, keep what finished, exit 128 + N.
 
-``SIGTERM`` (what ``kill``, ``timeout`` and CI runners send) and ``SIGHUP`` (a closed terminal)
-raise :class:`Interrupted` in the main thread, a :class:`KeyboardInterrupt` that carries the
-signal's number. Every ``except KeyboardInterrupt`` that writes the report of the cycles or
-episodes finished so far therefore serves all three signals alike; the exit code tells them
+``SIGTERM`` (what ``kill``, ``timeout`` and CI runners send), ``SIGHUP`` (a closed terminal) and
+``SIGINT`` (Ctrl-C, ``kill -INT``) raise :class:`Interrupted` in the main thread, a
+:class:`KeyboardInterrupt` that carries the signal's number. Every ``except KeyboardInterrupt``
+that writes the report of the cycles or episodes finished so far therefore serves all three
+signals alike; the exit code tells them
 apart (:func:`exit_code`: 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
+
+The signal is also remembered (:func:`received`): code that catches everything (a C extension's
+import turns the exception into ``ImportError: initialization failed``) cannot make it vanish.
+:func:`check` raises it again at a safe point (before a cycle, an episode), and the CLI exits
+with the signal's code whatever the command returned.
 """
 
 from __future__ import annotations
@@ -17,6 +23,8 @@ from types import FrameType
 
 #: Signals turned into :class:`Interrupted` by :func:`terminate_as_interrupt`.
 HANDLED = (signal.SIGTERM, signal.SIGHUP)
+#: Signals received under :func:`terminate_as_interrupt`, oldest first.
+_received: list[int] = []
 
 
 class Interrupted(KeyboardInterrupt):
@@ -43,24 +51,43 @@ def signal_name(exc: BaseException | None) -> str:
 
 
 def _raise(signum: int, frame: FrameType | None) -> None:
+    _received.append(int(signum))
     raise Interrupted(signum)
+
+
+def received() -> int | None:
+    """The first signal received within :func:`terminate_as_interrupt` (None: none)."""
+    return _received[0] if _received else None
+
+
+def check() -> None:
+    """Raise :class:`Interrupted` again for a signal received earlier: at a safe point before
+    more work (a cycle, an episode), so that a signal whose exception something swallowed
+    still stops the work."""
+    signum = received()
+    if signum is not None:
+        raise Interrupted(signum)
 
 
 @contextlib.contextmanager
 def terminate_as_interrupt() -> Iterator[None]:
-    """Within the block, SIGTERM and SIGHUP raise :class:`Interrupted` in the main thread.
+    """Within the block, SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` in the main
+    thread, and are remembered (:func:`received`, :func:`check`).
 
     Outside the main thread (where Python cannot install handlers) this does nothing. The
     previous handlers are restored afterwards; a signal ignored by the parent (``nohup``) stays
-    ignored.
+    ignored, and a SIGINT handler someone else installed is kept.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _received.clear()
     previous = {}
-    for sig in HANDLED:
+    for sig in (*HANDLED, signal.SIGINT):
         old = signal.getsignal(sig)
         if old is signal.SIG_IGN:
+            continue
+        if sig == signal.SIGINT and old is not signal.default_int_handler:
             continue
         previous[sig] = old
         signal.signal(sig, _raise)
