@@ -115,6 +115,14 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             "[target.randomize] radius: expected [low, high] with 0.001 <= low <= high <= 20",
         ),
         (
+            _with('name = "published"', 'name = "published"\n[robot]\nready_q = [45, 0, 0]'),
+            "[robot] ready_q: expected a list of 6 joint angles within +-360 [deg], got [45, 0, 0]",
+        ),
+        (
+            _with('name = "published"', 'name = "published"\n[robot]\nready = [0, 0, 0]'),
+            "[robot] has an unknown key 'ready' (keys: ready_q)",
+        ),
+        (
             _with('name = "published"', 'name = "two\\nlines"'),
             "name: expected 1 to 64 printable characters",
         ),
@@ -140,6 +148,18 @@ def test_bad_cell_files_are_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "r.json").exists()
+
+
+def test_the_ready_pose_comes_from_the_cell_file_in_degrees() -> None:
+    text = PUBLISHED_CELL.read_text().replace(
+        'name = "published"', 'name = "ready"\n[robot]\nready_q = [30, -10, 15, 0, 5, 0]'
+    )
+    cell = parse_cell(text)
+    assert cell.ready_q_deg == (30.0, -10.0, 15.0, 0.0, 5.0, 0.0)
+    layout = CellLayout.from_model(compile_cell(cell))
+    assert layout.ready_q is not None
+    assert np.allclose(np.degrees(layout.ready_q), [30, -10, 15, 0, 5, 0])
+    assert CellLayout.from_model(load_model()).ready_q is None  # the published cell sets none
 
 
 def test_one_row_with_an_empty_row_pitch_list_loads() -> None:

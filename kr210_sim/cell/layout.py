@@ -74,6 +74,7 @@ class CellLayout:
         target: The nominal target (``target_0`` as compiled).
         randomization: Randomisation ranges.
         park: Where each spare target waits (its initial position) [m], shape (k, 3).
+        ready_q: The cell's ready pose [rad], shape (6,), or None (the motion settings' one).
     """
 
     name: str
@@ -86,6 +87,7 @@ class CellLayout:
     target: TargetSpec
     randomization: RandomizationSpec
     park: FloatArray
+    ready_q: FloatArray | None = None
 
     @property
     def n_slots(self) -> int:
@@ -197,7 +199,17 @@ class CellLayout:
             target=target,
             randomization=_randomization(model),
             park=np.array(park),
+            ready_q=ready_q_of(model),
         )
+
+
+def ready_q_of(model: mujoco.MjModel) -> FloatArray | None:
+    """The ready pose a cell model sets (numeric ``ready_q_deg``) [rad], or None."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, "ready_q_deg")
+    if i < 0 or model.numeric_size[i] != 6:
+        return None
+    adr = model.numeric_adr[i]
+    return np.radians(np.array(model.numeric_data[adr : adr + 6], dtype=np.float64))
 
 
 def _text(model: mujoco.MjModel, name: str, default: str) -> str:

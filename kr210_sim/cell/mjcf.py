@@ -12,8 +12,8 @@ Named elements the runtime reads (:mod:`kr210_sim.cell.layout`): bodies ``shelf`
 ``shelf_board_<row>``, ``shelf_top``, ``shelf_back``, ``shelf_wall_left/right``,
 ``shelf_divider_<k>``), ``bin`` (``bin_floor``, ``bin_wall_px/nx/py/ny``), ``obstacles``
 (``obstacle_<i>``), ``target_<k>``; sites ``slot_<n>``, ``shelf_box``, ``bin_inside``,
-``drop_<n>``; custom text ``cell_name``, ``cell_sha256`` and numerics ``randomize_*``; robot
-hull colliders ``<link>_hull`` (class ``hull``).
+``drop_<n>``; custom text ``cell_name``, ``cell_sha256`` and numerics ``randomize_*`` (and
+``ready_q_deg`` when the cell sets it); robot hull colliders ``<link>_hull`` (class ``hull``).
 
 The robot's part (classes, drives, gripper, colliders, the contact filter bits) is
 :mod:`kr210_sim.cell.robot_model`; see also the README in ``assets/kr210``.
@@ -281,6 +281,8 @@ def _add_cell_info(spec: mujoco.MjSpec, cell: CellConfig) -> None:
     spec.add_numeric(name="randomize_yaw_deg", data=[round(math.degrees(a), 9) for a in r.yaw])
     for key in ("radius", "length", "mass", "friction"):
         spec.add_numeric(name=f"randomize_{key}", data=list(getattr(r, key)))
+    if cell.ready_q_deg is not None:
+        spec.add_numeric(name="ready_q_deg", data=list(cell.ready_q_deg))
 
 
 def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:

@@ -230,6 +230,8 @@ class CellConfig:
             every fixed camera's shot) in [m].
         park_spacing: Spacing between parked cylinders along y in [m].
         sha256: Hash of the file the cell was read from ("" when built in code).
+        ready_q_deg: The ready pose the arm waits in between cycles, joint_1 to joint_6 [deg]
+            (``[robot] ready_q``), or None for the motion settings' default.
     """
 
     name: str
@@ -242,10 +244,18 @@ class CellConfig:
     park_origin: tuple[float, float] = (-3.2, -4.2)
     park_spacing: float = 0.3
     sha256: str = ""
+    ready_q_deg: tuple[float, float, float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.n_targets < 1:
             raise ConfigError(f"n_targets must be >= 1, got {self.n_targets}")
+        if self.ready_q_deg is not None and (
+            len(self.ready_q_deg) != 6
+            or not all(math.isfinite(v) and abs(v) <= 360.0 for v in self.ready_q_deg)
+        ):
+            raise ConfigError(
+                f"ready_q must be 6 joint angles within +-360 deg, got {self.ready_q_deg!r}"
+            )
 
     @property
     def n_slots(self) -> int:

@@ -1,10 +1,10 @@
 """Cell files: a cell as TOML, checked key by key (compiled by :mod:`kr210_sim.cell.load`).
 
-A cell file has the sections ``[shelf]``, ``[bin]``, ``[target]`` (with ``[target.randomize]``)
-and any number of ``[[obstacles]]``; the README lists every key with its unit. A bad file is one
-:class:`~kr210_sim.errors.ConfigError` naming the file, the key and what was expected. The
-published cell is ``scenes/cells/published.toml``; ``scenes/kr210_cell.xml`` is generated from
-it.
+A cell file has the sections ``[shelf]``, ``[bin]``, ``[target]`` (with ``[target.randomize]``),
+``[robot]`` (its ``ready_q``) and any number of ``[[obstacles]]``; the README lists every key
+with its unit. A bad file is one :class:`~kr210_sim.errors.ConfigError` naming the file, the
+key and what was expected. The published cell is ``scenes/cells/published.toml``;
+``scenes/kr210_cell.xml`` is generated from it.
 """
 
 from __future__ import annotations
@@ -51,7 +51,8 @@ MAX_NAME = 64
 #: Largest cell file [bytes].
 MAX_FILE_BYTES = 1_000_000
 
-_SECTIONS = {"name", "shelf", "bin", "target", "obstacles"}
+_SECTIONS = {"name", "shelf", "bin", "target", "obstacles", "robot"}
+_ROBOT_KEYS = {"ready_q"}
 _SHELF_KEYS = {
     "position",
     "yaw_deg",
@@ -274,6 +275,19 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
                 yaw_deg=o.number("yaw_deg", 0.0, YAW_RANGE, "[deg]"),
             )
         )
+    ready_q = None
+    if "robot" in doc:
+        rb = _Reader(path, "[robot]", doc["robot"], _ROBOT_KEYS)
+        if "ready_q" in rb.table:
+            q = rb.table["ready_q"]
+            ok = isinstance(q, list) and len(q) == 6
+            ok = ok and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in q
+            )
+            if not ok or max(abs(v) for v in q) > 360.0:
+                rb.fail("ready_q", "a list of 6 joint angles within +-360 [deg]", q)
+            ready_q = tuple(float(v) for v in q)
     sha = hashlib.sha256(text.encode()).hexdigest()
     cell = CellConfig(
         name=name,
@@ -282,6 +296,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         target=target,
         randomization=randomization,
         obstacles=tuple(obstacles),
+        ready_q_deg=ready_q,  # type: ignore[arg-type]
         sha256=sha,
     )
     _check_layout(path, cell)

@@ -3,10 +3,13 @@
 For every slot the nominal target's whole cycle is planned as the first cycle of a run plans it
 (:meth:`~kr210_sim.plan.planner.Planner.plan_cycle`), before anything runs: standoff, grasp,
 lift and retreat (IK inside the limits), the carry to the drop spot the run picks first and the
-return, each collision-checked (:mod:`kr210_sim.plan.collide`) and detoured where it must be.
+return, each collision-checked (:mod:`kr210_sim.plan.collide`) and planned around what blocks it
+(OMPL) where it must be.
 Every drop spot is planned from the ready pose with the target held. The table says, per row,
-whether it is reachable, whether a collision-free plan was found, whether it needed a detour,
-what blocks otherwise, and the planning time.
+whether it is reachable, whether a collision-free plan was found, which planner found it
+(direct, or OMPL and for which phases), the planning time, the length of the path in joint
+space and at the gripper, and what blocks otherwise; above it, whether the ready pose had to be
+moved clear of the cell.
 """
 
 from __future__ import annotations
@@ -22,8 +25,9 @@ from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.cycle import drop_spot_index
+from kr210_sim.plan.cycle import Move, drop_spot_index
 from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.routing import path_lengths
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
 
@@ -38,11 +42,14 @@ class CheckRow:
         what: "slot 3" or "drop 2".
         reachable: IK inside the joint limits for every pose it needs.
         path: A collision-free plan was found.
-        detour: The plan goes through via points.
+        detour: A move of the plan was planned by OMPL around what blocked its direct move.
         planning_ms: Wall time of the planning [ms].
         detail: What blocks (empty when served).
         drop_spot: The drop spot the row's carry goes to (1-based; for a slot, the one the
             run's first cycle picks).
+        planner: "direct", or "ompl" and the phases OMPL planned ("ompl: approach, carry").
+        joint_length: Length of the plan's path in joint space [rad].
+        gripper_length: Length of the gripper's path [m].
     """
 
     what: str
@@ -52,6 +59,9 @@ class CheckRow:
     planning_ms: float
     detail: str
     drop_spot: int = 0
+    planner: str = ""
+    joint_length: float = 0.0
+    gripper_length: float = 0.0
 
     @property
     def served(self) -> bool:
@@ -67,11 +77,14 @@ class CellCheck:
         name: The cell's name.
         slots: One row per slot.
         drops: One row per drop spot.
+        ready_note: What blocked the configured ready pose and how far the clear one used
+            instead lies from it (empty when it was clear).
     """
 
     name: str
     slots: tuple[CheckRow, ...]
     drops: tuple[CheckRow, ...]
+    ready_note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -86,25 +99,33 @@ class CellCheck:
     def table(self) -> str:
         """A plain-text table, one line per slot and drop spot."""
         verdict = "every slot and drop spot can be served" if self.ok else "NOT SERVED"
-        head = f"cell {self.name}: {verdict}"
-        lines = [
-            head,
-            f"  {'':<8} {'reachable':>9} {'path':>5} {'detour':>6} {'plan ms':>8}  blocked by",
-        ]
+        lines = [f"cell {self.name}: {verdict}"]
+        if self.ready_note:
+            lines.append(f"  ready pose: {self.ready_note}")
+        lines.append(
+            f"  {'':<8} {'reachable':>9} {'path':>5} {'planner':<22} {'plan ms':>8} "
+            f"{'joint rad':>9} {'gripper m':>9}  blocked by"
+        )
+        yes = {True: "yes", False: "no"}
         for r in (*self.slots, *self.drops):
-            yes = {True: "yes", False: "no"}
+            if r.path:
+                figures = f"{r.joint_length:9.2f} {r.gripper_length:9.2f}"
+            else:
+                figures = f"{'-':>9} {'-':>9}"
             lines.append(
                 f"  {r.what:<8} {yes[r.reachable]:>9} {yes[r.path]:>5} "
-                f"{yes[r.detour] if r.path else '-':>6} {r.planning_ms:8.1f}  {r.detail}"
+                f"{r.planner if r.path else '-':<22} {r.planning_ms:8.1f} {figures}  {r.detail}"
             )
         return "\n".join(lines)
 
 
-def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], object]) -> CheckRow:
+def _row(
+    what: str, drop_spot: int, planner: Planner, plan: Callable[[], tuple[Move, ...]]
+) -> CheckRow:
     detours = planner.detours
     t0 = time.perf_counter()
     try:
-        plan()
+        moves = plan()
     except NoPathError as exc:
         ms = 1e3 * (time.perf_counter() - t0)
         return CheckRow(what, True, False, False, ms, str(exc), drop_spot)
@@ -112,7 +133,13 @@ def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], object]
         ms = 1e3 * (time.perf_counter() - t0)
         return CheckRow(what, False, False, False, ms, str(exc), drop_spot)
     ms = 1e3 * (time.perf_counter() - t0)
-    return CheckRow(what, True, True, planner.detours > detours, ms, "", drop_spot)
+    ompl = [m.phase for m in moves if m.planner == "ompl"]
+    used = f"ompl: {', '.join(dict.fromkeys(ompl))}" if ompl else "direct"
+    lengths = [path_lengths(m.trajectory, planner.kinematics) for m in moves]
+    joint = sum(a for a, _ in lengths)
+    grip = sum(b for _, b in lengths)
+    detour = planner.detours > detours
+    return CheckRow(what, True, True, detour, ms, "", drop_spot, used, joint, grip)
 
 
 def check_cell(
@@ -130,12 +157,12 @@ def check_cell(
     ready = planner.ready_q
     first = drop_spot_index(0, len(layout.drop_spots)) + 1  # a run's first cycle's
 
-    def slot_plan(n: int) -> None:
+    def slot_plan(n: int) -> tuple[Move, ...]:
         p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
-        planner.plan_cycle(ready, p, t, layout.drop_spots)
+        return planner.plan_cycle(ready, p, t, layout.drop_spots).moves
 
-    def drop_plan(n: int) -> None:  # the place part of a cycle, from the ready pose
-        planner.plan_place(ready, t, layout.drop_spots, placed=n - 1)
+    def drop_plan(n: int) -> tuple[Move, ...]:  # the place part of a cycle, from the ready pose
+        return planner.plan_place(ready, t, layout.drop_spots, placed=n - 1).moves
 
     slots = tuple(
         _row(f"slot {n}", first, planner, partial(slot_plan, n))
@@ -145,4 +172,4 @@ def check_cell(
         _row(f"drop {n}", n, planner, partial(drop_plan, n))
         for n in range(1, len(layout.drop_spots) + 1)
     )
-    return CellCheck(layout.name, slots, drops)
+    return CellCheck(layout.name, slots, drops, planner.ready_note)

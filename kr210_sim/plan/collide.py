@@ -233,6 +233,7 @@ class CollisionChecker:
         self._finger_open = float(m.actuator_ctrlrange[h.grip_act, 0])
         self._arm = slice(int(h.arm_qpos[0]), int(h.arm_qpos[-1]) + 1)
         self._cos_tilt = math.cos(math.radians(HOLD_TILT_DEG))
+        self._grip_body = int(m.body("gripper_link").id)
         self._offset: FloatArray | None = None
         #: States checked so far.
         self.checks = 0
@@ -332,24 +333,30 @@ class CollisionChecker:
             )
         return None
 
+    @property
+    def holding(self) -> bool:
+        """Whether the states checked next hold a target (:meth:`hold`)."""
+        return self._offset is not None
+
     def state_validity(self) -> Callable[[FloatArray], bool]:
         """A function ``valid(q) -> bool`` for one joint state [rad], under the current
-        :meth:`hold` (what a sampling planner calls)."""
+        :meth:`hold` (what a sampling planner calls). The held target is placed from MuJoCo's
+        own gripper_link pose (a second kinematics pass)."""
         m, d, a, arm = self.model, self.data, self._held_qpos, self._arm
-        off, cos_tilt = self._offset, self._cos_tilt
+        off, cos_tilt, grip = self._offset, self._cos_tilt, self._grip_body
         kin, collide = mujoco.mj_kinematics, mujoco.mj_collision
-        forward = self.kin.forward
 
         def valid(q: FloatArray) -> bool:
             self.checks += 1
             d.qpos[arm] = q
-            if off is not None:
-                T = forward(q)
-                if T[2, 2] < cos_tilt:
-                    return False
-                d.qpos[a : a + 3] = T[:3, :3] @ off + T[:3, 3]
-                mujoco.mju_mat2Quat(d.qpos[a + 3 : a + 7], T[:3, :3].ravel())
             kin(m, d)
+            if off is not None:
+                R = d.xmat[grip].reshape(3, 3)
+                if R[2, 2] < cos_tilt:
+                    return False
+                d.qpos[a : a + 3] = R @ off + d.xpos[grip]
+                d.qpos[a + 3 : a + 7] = d.xquat[grip]
+                kin(m, d)
             collide(m, d)
             return d.ncon == 0
 

@@ -28,11 +28,19 @@ class Move:
         phase: Phase name (approach, lift, retreat, carry, return).
         kind: "ptp" (joint space) or "lin" (straight line in Cartesian space).
         trajectory: The time-parametrised joint trajectory.
+        planner: "direct" (the straight joint move or line) or "ompl" (a path planned around
+            what blocks the direct move, :mod:`kr210_sim.plan.routing`).
+        planning_time: Wall time of its planning and collision checks [s].
+        bound: Lower bound of its duration at the joint velocity and acceleration limits (and,
+            for a line, the Cartesian speed) [s]; 0 when not known.
     """
 
     phase: str
     kind: str
     trajectory: Trajectory
+    planner: str = "direct"
+    planning_time: float = 0.0
+    bound: float = 0.0
 
     @property
     def q_end(self) -> FloatArray:

@@ -27,23 +27,23 @@ The carry goes to the cell's drop spots in turn (:func:`~kr210_sim.plan.cycle.dr
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 
+from kr210_sim.cell.layout import ready_q_of
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import NoPathError, PlanningError, UnreachablePoseError
+from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
 from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_index
+from kr210_sim.plan.routing import Router, clear_ready
+from kr210_sim.plan.timing import rest_to_rest_bound
 from kr210_sim.plan.trajectory import (
-    ChainTrajectory,
     JointLimits,
-    Trajectory,
     plan_cartesian_line,
     plan_ptp,
 )
@@ -51,9 +51,6 @@ from kr210_sim.robot.description import RobotDescription
 from kr210_sim.robot.ik_guard import CheckedIk
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
-
-if TYPE_CHECKING:
-    from kr210_sim.plan.collide import CollisionChecker, Hit
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -165,9 +162,11 @@ class Planner:
             answer is checked (:class:`~kr210_sim.robot.ik_guard.CheckedIk`) and a bad one raises
             :class:`~kr210_sim.errors.IkFailedError`.
         checker: Checks every move against the cell (:mod:`kr210_sim.plan.collide`); a joint-space
-            move that collides is planned again through via points (:meth:`detour`), and a
+            move that collides is planned again by OMPL (:mod:`kr210_sim.plan.routing`), and a
             move with no collision-free plan raises :class:`~kr210_sim.errors.NoPathError`.
-            None: moves are not checked.
+            With a checker, the ready pose is the cell's (``[robot] ready_q``) when it sets one,
+            and the clear pose nearest it when it collides. None: moves are not checked.
+        seed: The run's seed: OMPL's plans are seeded from it.
     """
 
     def __init__(
@@ -176,6 +175,7 @@ class Planner:
         motion: MotionConfig,
         ik: UserIk | None = None,
         checker: CollisionChecker | None = None,
+        seed: int = 0,
     ) -> None:
         self.robot = robot
         #: The kinematics of ``robot``.
@@ -185,9 +185,35 @@ class Planner:
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
         self.user_ik = CheckedIk(ik, self.kinematics) if ik is not None else None
         self.checker = checker
-        #: Moves planned through via points so far.
+        #: Moves planned by OMPL around what blocked the direct move so far.
         self.detours = 0
+        #: What blocked the configured ready pose (empty when it was clear and used).
+        self.ready_note = ""
         self._returns: dict[bytes, Move] = {}
+        self.router: Router | None = None
+        if checker is not None:
+            self.router = Router(checker, self.kinematics, self.limits, seed)
+            cell_ready = ready_q_of(checker.model)
+            if cell_ready is not None:
+                self.ready_q = cell_ready
+            if self._ready_in_limits():
+                self._clear_ready(checker)
+
+    def _clear_ready(self, checker: CollisionChecker) -> None:
+        """Use the clear pose nearest the ready pose when it collides (:attr:`ready_note`)."""
+        assert self.router is not None
+        try:
+            clear, blocked = clear_ready(checker, self.ready_q, self.router.sampler)
+        except PlanningError as exc:  # kept: every cycle's first move says what blocks it
+            self.ready_note = str(exc)
+            return
+        if blocked is not None:
+            moved = np.degrees(clear - self.ready_q)
+            self.ready_note = (
+                f"the ready pose collides ({blocked.describe()}): the nearest clear one is "
+                f"used, moved by {np.round(moved, 1).tolist()} deg"
+            )
+            self.ready_q = clear
 
     # -- collision checks ------------------------------------------------------------------
     def held_offset(self, radius: float) -> FloatArray:
@@ -197,74 +223,45 @@ class Planner:
     def _hit(self, move: Move, held: TargetSpec | None) -> Hit | None:
         if self.checker is None:
             return None
-        from kr210_sim.plan.collide import check_samples
-
         offset = None if held is None else self.held_offset(held.radius)
         samples = check_samples(move.trajectory, self.kinematics)
         return self.checker.first_hit(samples, held, offset)
 
     def checked(self, move: Move, held: TargetSpec | None = None) -> Move:
-        """``move`` if it keeps clear of the cell, else a detour (joint-space moves only).
+        """``move`` if it keeps clear of the cell; a joint-space move that collides is planned
+        again around what blocks it (OMPL, :class:`~kr210_sim.plan.routing.Router`).
 
         Raises:
-            NoPathError: When the move collides and no detour clears the cell.
+            NoPathError: When a straight-line move collides, or a joint-space move collides and
+                OMPL finds no clear path; the message says what blocks.
         """
+        t0 = time.perf_counter()
         hit = self._hit(move, held)
-        if hit is None:
-            return move
-        if move.kind == "ptp":
-            tried = 0
-            for vias in self._via_candidates(move.trajectory.q_start, move.q_end):
-                tried += 1
-                try:
-                    points = [move.trajectory.q_start, *vias, move.q_end]
-                    segments: list[Trajectory] = [
-                        plan_ptp(a, b, self.limits) for a, b in itertools.pairwise(points)
-                    ]
-                except (PlanningError, UnreachablePoseError):
-                    continue
-                candidate = Move(move.phase, "ptp", ChainTrajectory(segments))
-                if self._hit(candidate, held) is None:
-                    self.detours += 1
-                    return candidate
-            raise NoPathError(
-                f"{move.phase} move: {hit.describe()}, and none of {tried} detours is clear"
-            )
-        raise NoPathError(f"{move.phase} straight-line move: {hit.describe()}")
-
-    def _via_candidates(self, q0: FloatArray, q1: FloatArray) -> list[list[FloatArray]]:
-        """Via points to try, in order: pull in towards the base (at the start's and the goal's
-        heading), rise over, and pull in higher; every one a level, radial gripper pose."""
-        forward = self.kinematics.forward
-        p0, p1 = forward(q0)[:3, 3], forward(q1)[:3, 3]
-        a0, a1 = math.atan2(p0[1], p0[0]), math.atan2(p1[1], p1[0])
-        r0, r1 = math.hypot(p0[0], p0[1]), math.hypot(p1[0], p1[1])
-        z = max(p0[2], p1[2])
-        plans: list[list[tuple[float, float, float]]] = []
-        for r in (1.4, 1.1):
-            for zz in (z, z + 0.4, 2.3):
-                plans.append([(a0, r, zz), (a1, r, zz)])
-        for zz in (z + 0.5, 2.7):
-            plans.append([(a0, r0, zz), (a1, r1, zz)])
-        out: list[list[FloatArray]] = []
-        for plan in plans:
-            q_ref, vias = q0, []
-            try:
-                for a, r, zz in plan:
-                    T = gripper_pose((r * math.cos(a), r * math.sin(a), zz), a)
-                    q_ref = self.kinematics.nearest(T, q_ref)
-                    vias.append(q_ref)
-            except UnreachablePoseError:
-                continue
-            out.append(vias)
-        return out
+        if hit is None or self.router is None:
+            return replace(move, planning_time=move.planning_time + time.perf_counter() - t0)
+        if move.kind != "ptp":
+            raise NoPathError(f"{move.phase} straight-line move: {hit.describe()}")
+        routed = self.router.route(move.trajectory.q_start, move.q_end, move.phase)
+        self.detours += 1
+        return Move(
+            move.phase,
+            "ptp",
+            routed.trajectory,
+            routed.planner,
+            move.planning_time + time.perf_counter() - t0,
+            routed.bound,
+        )
 
     def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray) -> Move:
         """A joint-space move at rest at both ends."""
-        return Move(phase, "ptp", plan_ptp(q_start, q_goal, self.limits))
+        t0 = time.perf_counter()
+        traj = plan_ptp(q_start, q_goal, self.limits)
+        bound = rest_to_rest_bound(q_start, q_goal, self.limits)
+        return Move(phase, "ptp", traj, "direct", time.perf_counter() - t0, bound)
 
     def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray) -> Move:
         """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
+        t0 = time.perf_counter()
         T_start = self.kinematics.forward(q_start)
         ik: Callable[[FloatArray, FloatArray], FloatArray] = self.kinematics.nearest
         if self.user_ik is not None:
@@ -278,7 +275,7 @@ class Planner:
             speed=self.motion.lin_speed,
             step=self.motion.lin_step,
         )
-        return Move(phase, "lin", traj)
+        return Move(phase, "lin", traj, "direct", time.perf_counter() - t0, traj.bound)
 
     def solve(
         self, T: FloatArray, q_ref: FloatArray, what: str, untwisted: bool = False
@@ -470,8 +467,11 @@ class Planner:
             time.process_time() - c0,
         )
 
+    def _ready_in_limits(self) -> bool:
+        lo, hi = self.robot.q_lower, self.robot.q_upper
+        return not (np.any(self.ready_q < lo) or np.any(self.ready_q > hi))
+
     def check_ready(self) -> None:
         """Raise PlanningError when the configured ready pose breaks a joint limit."""
-        lo, hi = self.robot.q_lower, self.robot.q_upper
-        if np.any(self.ready_q < lo) or np.any(self.ready_q > hi):
+        if not self._ready_in_limits():
             raise PlanningError(f"ready_q {self.ready_q.tolist()} is outside the joint limits")

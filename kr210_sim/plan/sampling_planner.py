@@ -33,15 +33,19 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from kr210_sim.errors import NoPathError
-from kr210_sim.plan.collide import SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker
+from kr210_sim.plan.collide import HOLD_TILT_DEG, SAMPLE_ANGLE, SAMPLE_TRAVEL, CollisionChecker
 
 import mujoco  # isort: skip
 
 FloatArray = npt.NDArray[np.float64]
 
 #: Checking step of the search, in the weighted distance [m] (the result is checked again at
-#: 1 cm).
-COARSE_STEP = 0.04
+#: 1 cm before the arm may move).
+COARSE_STEP = 0.08
+#: Largest |q4| searched while holding a part [rad].
+HELD_Q4 = math.pi / 4
+#: RRTConnect's longest extension, in the weighted distance [m].
+RRT_RANGE = 2.0
 #: Longest RRTConnect search [s].
 SOLVE_TIME = 1.0
 #: Time budget of the path simplification [s].
@@ -132,15 +136,35 @@ class SamplingPlanner:
         self.seed = seed
         self.weights = np.maximum(lever_arms(checker.model), SAMPLE_TRAVEL / SAMPLE_ANGLE)
 
-    def _space(self) -> ob.CompoundStateSpace:
+    def _coordinates(self, held: bool) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The search coordinates x (q = M x): the joints, or while holding (q1, q2, q3, q4,
+        s, q6) with s = q2 + q3 + q5 the gripper's tilt in the arm's plane, bounded by the tilt
+        limit, and q4 within :data:`HELD_Q4`. Straight lines in x are straight in q.
+
+        Returns:
+            M (6, 6), the lower and upper bounds of x, and x's weights (each at least the
+            travel per radian of every joint it moves).
+        """
+        M = np.eye(6)
+        lo, hi, w = self.lower.copy(), self.upper.copy(), self.weights.copy()
+        if held:
+            M[4, 1:3] = -1.0  # q5 = s - q2 - q3
+            tilt = math.radians(HOLD_TILT_DEG)
+            lo[3], hi[3] = max(lo[3], -HELD_Q4), min(hi[3], HELD_Q4)
+            lo[4], hi[4] = -tilt, tilt
+            w[1:3] += w[4]
+        return M, lo, hi, w
+
+    @staticmethod
+    def _space(lo: FloatArray, hi: FloatArray, w: FloatArray) -> ob.CompoundStateSpace:
         space = ob.CompoundStateSpace()
-        for lo, hi, w in zip(self.lower, self.upper, self.weights, strict=True):
+        for a, b, weight in zip(lo, hi, w, strict=True):
             sub = ob.RealVectorStateSpace(1)
             bounds = ob.RealVectorBounds(1)
-            bounds.setLow(0, float(lo))
-            bounds.setHigh(0, float(hi))
+            bounds.setLow(0, float(a))
+            bounds.setHigh(0, float(b))
             sub.setBounds(bounds)
-            space.addSubspace(sub, float(w))
+            space.addSubspace(sub, float(weight))
         return space
 
     def distance(self, a: npt.ArrayLike, b: npt.ArrayLike) -> float:
@@ -148,33 +172,29 @@ class SamplingPlanner:
         return float(np.sum(self.weights * np.abs(np.asarray(b) - np.asarray(a))))
 
     def plan(
-        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool = False
+        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool = False, fine: bool = False
     ) -> SampledPath:
-        """A collision-free path from ``q_start`` to ``q_goal`` [rad].
+        """A path from ``q_start`` to ``q_goal`` [rad].
 
-        Searched at :data:`COARSE_STEP`, the result's segments checked again every
-        :data:`~kr210_sim.plan.collide.SAMPLE_TRAVEL`; when that finds a collision the search is
-        made again at the fine step.
+        The search checks motions every :data:`COARSE_STEP` of the weighted distance, or every
+        :data:`~kr210_sim.plan.collide.SAMPLE_TRAVEL` with ``fine``; a coarse path's segments
+        must be checked again at the fine step (:meth:`segments_clear`, or by checking the
+        trajectory timed along them) before the arm may follow them.
 
         Args:
             q_start: Start joint state [rad].
             q_goal: Goal joint state [rad].
-            held: Whether a part is held (only for the seed: set it on the checker).
+            held: Whether a part is held (set it on the checker too): the search keeps the
+                gripper near level (:meth:`_coordinates`).
+            fine: Search at the fine step.
 
         Raises:
             NoPathError: When an end collides, or RRTConnect finds no path in
                 :data:`SOLVE_TIME`.
         """
-        t0 = time.perf_counter()
-        checks0 = self.checker.checks
-        path = self._plan(q_start, q_goal, held, COARSE_STEP)
-        if not self._segments_clear(path.waypoints):
-            path = self._plan(q_start, q_goal, held, SAMPLE_TRAVEL)
-        return SampledPath(
-            path.waypoints, time.perf_counter() - t0, self.checker.checks - checks0, path.length
-        )
+        return self._plan(q_start, q_goal, held, SAMPLE_TRAVEL if fine else COARSE_STEP)
 
-    def _segments_clear(self, way: FloatArray) -> bool:
+    def segments_clear(self, way: FloatArray) -> bool:
         """Whether the straight segments between ``way``'s states are clear, checked every
         :data:`~kr210_sim.plan.collide.SAMPLE_TRAVEL` of the weighted distance."""
         for a, b in itertools.pairwise(way):
@@ -199,24 +219,43 @@ class SamplingPlanner:
                 blocked = hit.describe() if hit is not None else "it is outside the limits"
                 raise NoPathError(f"the {what} of the move collides: {blocked}")
         _seed(plan_seed(self.seed, qs, qg, held))
-        space = self._space()
+        M, lo, hi, w = self._coordinates(held)
+        M_inv = np.linalg.inv(M)
+        space = self._space(lo, hi, w)
         ss = og.SimpleSetup(space)
-        buf = np.empty(6)
+        x = np.empty(6)
+        q_lo, q_hi = self.lower, self.upper
 
-        def is_valid(state: ob.State) -> bool:
-            for j in range(6):
-                buf[j] = state[j][0]
-            return valid(buf)
+        if held:  # only q5 = s - q2 - q3 can leave its limits
+
+            def is_valid(state: ob.State) -> bool:
+                for j in range(6):
+                    x[j] = state[j][0]
+                q5 = x[4] - x[1] - x[2]
+                if not q_lo[4] <= q5 <= q_hi[4]:
+                    return False
+                x[4] = q5
+                return valid(x)
+
+        else:
+
+            def is_valid(state: ob.State) -> bool:
+                for j in range(6):
+                    x[j] = state[j][0]
+                return valid(x)
 
         ss.setStateValidityChecker(is_valid)
         si = ss.getSpaceInformation()
         si.setStateValidityCheckingResolution(step / space.getMaximumExtent())
         start, goal = space.allocState(), space.allocState()
+        xs, xg = M_inv @ qs, M_inv @ qg
         for j in range(6):
-            start[j][0] = float(qs[j])
-            goal[j][0] = float(qg[j])
+            start[j][0] = float(np.clip(xs[j], lo[j], hi[j]))
+            goal[j][0] = float(np.clip(xg[j], lo[j], hi[j]))
         ss.setStartAndGoalStates(start, goal)
-        ss.setPlanner(og.RRTConnect(si))
+        rrt = og.RRTConnect(si)
+        rrt.setRange(RRT_RANGE)
+        ss.setPlanner(rrt)
         ss.solve(SOLVE_TIME)
         if not ss.haveExactSolutionPath():
             raise NoPathError(
@@ -227,13 +266,13 @@ class SamplingPlanner:
         simplifier = og.PathSimplifier(si)
         t_end = time.perf_counter() + SIMPLIFY_TIME
         for _ in range(SIMPLIFY_ROUNDS):
-            changed = simplifier.ropeShortcutPath(path)
-            changed |= simplifier.reduceVertices(path, 0, 0, 0.33)
+            n0 = path.getStateCount()
+            changed = simplifier.reduceVertices(path, 2 * n0, n0, 1.0)
             changed |= simplifier.collapseCloseVertices(path)
             if not changed or time.perf_counter() > t_end:
                 break
         n = path.getStateCount()
-        way = np.array([[path.getState(i)[j][0] for j in range(6)] for i in range(n)])
+        way = np.array([[path.getState(i)[j][0] for j in range(6)] for i in range(n)]) @ M.T
         way[0], way[-1] = qs, qg
         length = sum(self.distance(a, b) for a, b in itertools.pairwise(way))
         return SampledPath(way, time.perf_counter() - t0, self.checker.checks - checks0, length)

@@ -40,7 +40,7 @@ LIMIT_DT = 0.002
 #: Slack on the velocity and acceleration limits in the check (ruckig's own rounding).
 RATE_SLACK = 1e-6
 #: Samples of a path that toppra parametrises for the bound.
-BOUND_SAMPLES = 60
+BOUND_SAMPLES = 40
 
 
 def joint_min_time(distance: FloatArray, v_max: FloatArray, a_max: FloatArray) -> FloatArray:

@@ -246,7 +246,12 @@ def _hermite(
 
 
 class LineTrajectory(Trajectory):
-    """A straight-line Cartesian move: q(s) on a cubic Hermite spline, s(t) from ruckig."""
+    """A straight-line Cartesian move: q(s) on a cubic Hermite spline, s(t) from ruckig.
+
+    Attributes:
+        bound: Lower bound of the duration [s]: the line from rest to rest at the Cartesian
+            speed and at every joint's velocity and acceleration limit, no jerk limit.
+    """
 
     def __init__(
         self,
@@ -255,7 +260,9 @@ class LineTrajectory(Trajectory):
         profile: ruckig.Trajectory | None,
         T_start: FloatArray,
         T_goal: FloatArray,
+        bound: float = 0.0,
     ) -> None:
+        self.bound = bound
         self.q_knots = q_knots
         self.length = length
         self._n = len(q_knots) - 1
@@ -394,7 +401,13 @@ def plan_cartesian_line(
     result = ruckig.Ruckig(1).calculate(inp, profile)
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"ruckig found no path profile ({result})")
-    return LineTrajectory(knots, path_len, profile, Ts, Tg)
+    v_bound = min(speed if length > 1e-9 else speed * 4.0, float(np.min(limits.v_max / dq)))
+    a_bound = float(np.min(limits.a_max / dq))
+    if path_len < v_bound * v_bound / a_bound:
+        bound = 2.0 * math.sqrt(path_len / a_bound)
+    else:
+        bound = path_len / v_bound + v_bound / a_bound
+    return LineTrajectory(knots, path_len, profile, Ts, Tg, bound)
 
 
 class ChainTrajectory(Trajectory):

@@ -82,6 +82,12 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
         summary["wall_planning_time_s"] = {"mean": float(plan.mean()), "max": float(plan.max())}
         cpu = np.array([r.cpu_planning_time for r in results])
         summary["cpu_planning_time_s"] = {"mean": float(cpu.mean()), "max": float(cpu.max())}
+        ratio = np.array([r.bound_ratio for r in results if r.moves])
+        if len(ratio):
+            summary["motion_time_over_bound"] = {
+                "mean": float(ratio.mean()),
+                "max": float(ratio.max()),
+            }
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
         rtf = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
@@ -182,6 +188,11 @@ def summary_table(summary: dict[str, Any]) -> str:
         ("worst creep in the grip", f"{summary['max_creep_mm']:.2f} mm"),
         ("robot-cell contact ticks", f"{summary['env_contact_ticks']}"),
     ]
+    if "motion_time_over_bound" in summary:
+        b = summary["motion_time_over_bound"]
+        rows.insert(
+            4, ("moves / their lower bound", f"{b['mean']:.2f} / {b['max']:.2f} (mean / max)")
+        )
     if "wall_time_s" in summary:
         wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
         rows.append(("wall time", f"{wall:.2f} s ({rtf:.0f}x real time)"))

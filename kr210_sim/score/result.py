@@ -60,12 +60,14 @@ class CycleResult:
         target: The target's spawn sample.
         target_final: The target's final centre [m].
         phase_times: Simulated duration of each phase [s].
-        detours: Moves planned through via points to keep clear of the cell.
+        detours: Moves planned by OMPL around what blocked their direct move.
         wall_time: Wall-clock time of the cycle [s] (excluded from determinism checks).
         wall_planning_time: Wall-clock time spent planning the cycle's moves, collision checks
             and detours included [s] (excluded from determinism checks).
         cpu_planning_time: CPU time of that planning [s] (on a loaded machine the wall time
             also counts the waits for a core; excluded from determinism checks).
+        moves: The cycle plan's arm moves: (phase, planner ("direct" or "ompl"), duration [s],
+            lower bound of the duration at the joint velocity and acceleration limits [s]).
     """
 
     index: int
@@ -87,6 +89,13 @@ class CycleResult:
     wall_time: float
     wall_planning_time: float
     cpu_planning_time: float
+    moves: tuple[tuple[str, str, float, float], ...] = ()
+
+    @property
+    def bound_ratio(self) -> float:
+        """The moves' total duration over their total lower bound (0 without moves)."""
+        bound = sum(m[3] for m in self.moves)
+        return sum(m[2] for m in self.moves) / bound if bound > 0 else 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """The cycle record: a JSON-ready dictionary (see :func:`cycle_record`)."""
@@ -106,6 +115,7 @@ def cycle_record(r: CycleResult) -> dict[str, Any]:
         "spec": asdict(r.target.spec),
     }
     d["target_final"] = list(r.target_final)
+    d["moves"] = [{"phase": p, "planner": k, "duration": t, "bound": b} for p, k, t, b in r.moves]
     return d
 
 

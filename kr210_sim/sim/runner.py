@@ -164,7 +164,7 @@ class Runner:
             )
         self.cell = Cell(self.model)
         checker = CollisionChecker(self.model, Kinematics(self.robot))
-        self.planner = Planner(self.robot, config.motion, ik, checker)
+        self.planner = Planner(self.robot, config.motion, ik, checker, config.seed)
         self.planner.check_ready()
         self.rng = rng if rng is not None else np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
@@ -422,11 +422,13 @@ class Runner:
             wall0,
             obs,
         )
+        moves = () if self.plan is None or failure is not None else self.plan.moves
         result = dataclasses.replace(
             result,
             detours=self.planner.detours - detours0,
             wall_planning_time=planning,
             cpu_planning_time=planning_cpu,
+            moves=tuple((m.phase, m.planner, m.trajectory.duration, m.bound) for m in moves),
         )
         self.results.append(result)
         if self.keep_recordings:

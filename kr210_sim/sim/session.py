@@ -156,4 +156,8 @@ def runner_report(
     )
     if runner.planner.user_ik is not None:
         report["summary"]["ik"] = runner.planner.user_ik.summary()
+    if runner.layout.ready_q is not None or runner.planner.ready_note:
+        # the ready pose the cell asked for, and the one used when that one touches the cell
+        report["cell"]["ready_q_deg"] = np.degrees(runner.planner.ready_q).round(3).tolist()
+        report["cell"]["ready_note"] = runner.planner.ready_note
     return report

@@ -1,0 +1,167 @@
+"""Joint-space moves that keep clear of the cell: the direct move first, OMPL when it collides.
+
+:class:`Router` takes a joint move from rest to rest. When the direct, phase-synchronised move
+is clear (:mod:`kr210_sim.plan.collide`) it is used as it is. Otherwise OMPL plans a path
+(:mod:`kr210_sim.plan.sampling_planner`), which is timed through its waypoints without stopping
+(:mod:`kr210_sim.plan.timing`); the timed samples are checked against the cell again and against
+the position, velocity and acceleration limits before the arm may move. Every result carries the
+planner used, the planning time and a lower bound of its duration.
+
+:func:`clear_ready` finds the collision-free joint state nearest a ready pose that collides.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.errors import NoPathError, PlanningError
+from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
+from kr210_sim.plan.sampling_planner import SamplingPlanner
+from kr210_sim.plan.timing import check_limits, path_bound, rest_to_rest_bound, time_path
+from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp
+from kr210_sim.robot.kinematics import Kinematics
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Samples of a planned trajectory handed to toppra for its bound.
+BOUND_SAMPLES = 80
+#: Radii of the rings searched for a clear ready pose, in the planner's weighted distance [m].
+READY_RINGS = np.linspace(0.05, 3.0, 60)
+#: Candidates tried on each ring.
+READY_TRIES = 60
+
+
+@dataclass(frozen=True, slots=True)
+class Routed:
+    """A checked joint move.
+
+    Attributes:
+        trajectory: The timed move.
+        planner: "direct" or "ompl".
+        planning_time: Wall time of its planning and checks [s].
+        bound: Lower bound of its duration at the joint velocity and acceleration limits [s].
+        checks: Validity checks made for it.
+        hit: What blocked the direct move (None when it was clear).
+    """
+
+    trajectory: Trajectory
+    planner: str
+    planning_time: float
+    bound: float
+    checks: int
+    hit: Hit | None
+
+
+class Router:
+    """Direct joint moves, or OMPL paths around what blocks them.
+
+    Args:
+        checker: The collision checker of the cell.
+        kin: The arm's kinematics.
+        limits: Joint limits.
+        seed: The run's seed (OMPL's plans are seeded from it).
+    """
+
+    def __init__(
+        self, checker: CollisionChecker, kin: Kinematics, limits: JointLimits, seed: int = 0
+    ) -> None:
+        self.checker = checker
+        self.kin = kin
+        self.limits = limits
+        self.sampler = SamplingPlanner(checker, limits.lower, limits.upper, seed)
+
+    def hit(self, traj: Trajectory) -> Hit | None:
+        """The first collision along ``traj`` under the checker's current hold, or None."""
+        return self.checker.scan(check_samples(traj, self.kin))
+
+    def _clear(self, traj: Trajectory) -> bool:
+        return self.hit(traj) is None
+
+    def route(self, q_start: FloatArray, q_goal: FloatArray, phase: str) -> Routed:
+        """A clear move from rest at ``q_start`` to rest at ``q_goal`` [rad], checked under the
+        checker's current :meth:`~CollisionChecker.hold`.
+
+        Raises:
+            NoPathError: When the direct move collides and OMPL finds no clear path; the
+                message says what blocks the direct move.
+            PlanningError: When a trajectory breaks a limit.
+        """
+        t0, checks0 = time.perf_counter(), self.checker.checks
+        direct = plan_ptp(q_start, q_goal, self.limits)
+        hit = self.hit(direct)
+        if hit is None:
+            bound = rest_to_rest_bound(q_start, q_goal, self.limits)
+            return Routed(
+                direct,
+                "direct",
+                time.perf_counter() - t0,
+                bound,
+                self.checker.checks - checks0,
+                None,
+            )
+        held = self.checker.holding
+        try:
+            path = self.sampler.plan(q_start, q_goal, held)
+            try:  # the coarse search's path, timed and checked at the fine step
+                traj, _ = time_path(path.waypoints, self.limits, self._clear)
+            except PlanningError:  # not clear even along its straight segments: search finely
+                path = self.sampler.plan(q_start, q_goal, held, fine=True)
+                traj, _ = time_path(path.waypoints, self.limits, self._clear)
+        except NoPathError as exc:
+            raise NoPathError(f"{phase} move: {hit.describe()}; {exc}") from exc
+        check_limits(traj, self.limits)
+        qs = traj.sample_many(np.linspace(0.0, traj.duration, BOUND_SAMPLES))[0]
+        bound = path_bound(qs, self.limits)
+        return Routed(
+            traj, "ompl", time.perf_counter() - t0, bound, self.checker.checks - checks0, hit
+        )
+
+
+def path_lengths(traj: Trajectory, kin: Kinematics) -> tuple[float, float]:
+    """Length of a move's path in joint space (Euclidean, [rad]) and of the gripper_link
+    origin's path [m], from samples at most 1 cm and 1 deg apart."""
+    q = check_samples(traj, kin)
+    p = kin.forward(q)[:, :3, 3]
+    joint = float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum())
+    return joint, float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+def clear_ready(
+    checker: CollisionChecker, q: npt.ArrayLike, sampler: SamplingPlanner
+) -> tuple[FloatArray, Hit | None]:
+    """The ready pose ``q`` [rad] if it is clear (nothing held), else the clear joint state
+    nearest it in the planner's weighted distance, found on growing rings of deterministic
+    samples.
+
+    Returns:
+        The clear pose and what blocked ``q`` (None when ``q`` was clear).
+
+    Raises:
+        PlanningError: When no clear state lies within the searched rings.
+    """
+    q0 = np.asarray(q, dtype=np.float64)
+    checker.hold(None, None)
+    blocked = checker.scan(q0[None])
+    if blocked is None:
+        return q0, None
+    rng = np.random.default_rng(0)
+    lo, hi = sampler.lower, sampler.upper
+    valid = checker.state_validity()
+    for r in READY_RINGS:
+        best, best_d = None, np.inf
+        for _ in range(READY_TRIES):
+            u = rng.normal(size=6) / sampler.weights
+            cand = np.clip(q0 + u * r / sampler.distance(np.zeros(6), u), lo, hi)
+            d = sampler.distance(q0, cand)
+            if d < best_d and valid(cand):
+                best, best_d = cand, d
+        if best is not None:
+            return best, blocked
+    raise PlanningError(
+        f"the ready pose collides ({blocked.describe()}) and no clear pose lies within "
+        f"{READY_RINGS[-1]:.1f} m of gripper travel of it: set [robot] ready_q in the cell file"
+    )

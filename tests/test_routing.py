@@ -1,0 +1,101 @@
+"""Direct moves first, OMPL around what blocks them; a clear ready pose; straight lines that
+stay straight; the duration of every move against its lower bound."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from kr210_sim.cell.load import compile_cell, model_for
+from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
+from kr210_sim.errors import NoPathError
+from kr210_sim.plan.collide import CollisionChecker
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.routing import path_lengths
+from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import Kinematics
+from kr210_sim.score.report import summarise
+from kr210_sim.sim.runner import RunConfig, Runner
+
+CELLS = PUBLISHED_CELL.parent
+
+
+def _planner(model: mujoco.MjModel, seed: int = 0) -> Planner:
+    robot = load_robot()
+    return Planner(robot, MotionConfig(), None, CollisionChecker(model, Kinematics(robot)), seed)
+
+
+def _box(model: mujoco.MjModel, center: tuple[float, float, float], half: float) -> None:
+    """Move and resize the cell's obstacle_1 (alone in its body) to a cube; the body's bounding
+    volume is kept about its inertial frame, which moves with it."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "obstacle_1")
+    model.geom_pos[i] = center
+    model.body_ipos[model.geom_bodyid[i]] = center
+    model.geom_size[i] = (half, half, half)
+    model.geom_rbound[i] = math.sqrt(3) * half
+    model.geom_aabb[i, 3:] = half
+
+
+def test_a_blocked_ready_pose_gives_way_to_the_nearest_clear_one() -> None:
+    model = model_for(cell=CELLS / "column.toml")
+    configured = np.array(MotionConfig().ready_q)
+    T = Kinematics(load_robot()).forward(configured)
+    _box(model, tuple(T[:3, :3] @ (0.25, 0.0, 0.0) + T[:3, 3]), 0.15)  # round the fingers
+    planner = _planner(model)
+    assert planner.ready_note.startswith("the ready pose collides (")
+    assert "against obstacle_1" in planner.ready_note
+    assert planner.checker is not None and planner.checker.scan(planner.ready_q[None]) is None
+    moved = planner.router.sampler.distance(configured, planner.ready_q)  # type: ignore[union-attr]
+    assert 0.0 < moved < 0.5  # [m] of gripper travel at most
+    slot = np.array([2.6, 0.0, 1.681])
+    plan = planner.plan_grasp(planner.ready_q, slot, 0.05, 0.25)
+    assert np.allclose(plan.approach_ptp.trajectory.q_start, planner.ready_q)
+
+
+def test_the_cell_files_ready_pose_is_used() -> None:
+    text = PUBLISHED_CELL.read_text().replace(
+        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
+    )
+    planner = _planner(compile_cell(parse_cell(text)))
+    assert np.allclose(np.degrees(planner.ready_q), [40, -15, 20, 0, -5, 0])
+    assert planner.ready_note == ""
+
+
+def test_a_blocked_straight_line_is_no_path_with_what_blocks() -> None:
+    model = model_for(cell=CELLS / "column.toml")
+    _box(model, (2.2, 0.0, 1.68), 0.025)  # between the middle slot's standoff and its grasp
+    planner = _planner(model)
+    with pytest.raises(NoPathError, match=r"approach straight-line move: .* against obstacle_1"):
+        planner.plan_grasp(planner.ready_q, np.array([2.6, 0.0, 1.681]), 0.05, 0.25)
+
+
+def test_ompl_moves_are_seeded_clear_and_not_far_above_their_bound() -> None:
+    model = model_for(cell=CELLS / "column.toml")
+    slot = np.array([2.6, 0.9, 0.914])
+    a = _planner(model, seed=7).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
+    b = _planner(model, seed=7).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
+    move = a.approach_ptp
+    assert move.planner == "ompl" and b.approach_ptp.planner == "ompl"
+    ts = np.linspace(0, move.trajectory.duration, 50)
+    assert np.array_equal(
+        move.trajectory.sample_many(ts)[0], b.approach_ptp.trajectory.sample_many(ts)[0]
+    )
+    assert 1.0 <= move.trajectory.duration / move.bound < 1.5
+    joint, gripper = path_lengths(move.trajectory, Kinematics(load_robot()))
+    assert joint > 1.0 and gripper > 1.0
+    assert a.approach_lin.planner == "direct" and a.approach_lin.bound > 0
+
+
+def test_a_cycle_reports_each_moves_duration_and_bound() -> None:
+    runner = Runner(RunConfig(cycles=1))
+    r = runner.run_cycle(1, 5)
+    assert r.success
+    assert [m[0] for m in r.moves] == ["approach", "approach", "lift", "retreat", "carry", "return"]
+    assert all(m[1] == "direct" and m[2] >= m[3] > 0 for m in r.moves)
+    summary = summarise([r])
+    ratio = summary["motion_time_over_bound"]
+    assert ratio["mean"] == pytest.approx(r.bound_ratio) and 1.0 < ratio["mean"] < 1.3
