@@ -61,12 +61,12 @@ def run(args: argparse.Namespace) -> int:
     try:  # a bad SPEC is one line here, before anything runs
         ik = _load_ik(args.ik, args.ik_timeout)
     except KeyboardInterrupt as exc:  # in the user's module: still a report, of no cycles
-        from kr210_sim.jobs import unstarted
         from kr210_sim.sim.runner import RunConfig
-        from kr210_sim.util.outputs import check_writable
+        from kr210_sim.sim.session import unstarted_report
+        from kr210_sim.util.outputs import check_writable, write_json_atomic
 
         config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot)
-        unstarted(config, check_writable(args.report), exc)
+        write_json_atomic(check_writable(args.report), unstarted_report(config, exc))
         return exit_code(exc)
     video = None
     given = _video_options(args)

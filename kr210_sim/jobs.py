@@ -44,10 +44,9 @@ from kr210_sim.media.recording import (
 from kr210_sim.media.render_pool import RenderPool, capped_workers, default_workers
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.robot.user_ik import UserIk
-from kr210_sim.score.report import build_report
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
-from kr210_sim.sim.session import run_session, runner_report
+from kr210_sim.sim.session import run_session, runner_report, unstarted_report
 from kr210_sim.util.interrupts import exit_code, signal_name
 from kr210_sim.util.outputs import (
     check_distinct,
@@ -193,13 +192,47 @@ def run_job(
     """
     out = out or sys.stdout
     check_outputs(report_path, video, plots_dir, scene, ik, cell, record)
-    try:
-        runner, _, identity, recorders, states, pool, progress, video_error = _set_up(
-            config, video, plots_dir, progress_stream, scene, ik, cell, record, record_rate,
-            render_workers,
-        )  # fmt: skip
-    except KeyboardInterrupt as exc:  # before the first cycle: a report of none, interrupted
-        return unstarted(config, report_path, exc)
+    pool: RenderPool | None = None
+    try:  # an interrupt before the first cycle: a report of none, marked interrupted
+        # Without --scene or --cell the runner loads the committed scene itself, after the URDF
+        # (a recording or a video needs the model's identity first: then it is loaded here).
+        model = identity = None
+        if scene is not None or cell is not None or record is not None or video is not None:
+            model = model_for(scene, cell)
+            identity = model_identity(model)  # of the model as loaded, before the run changes it
+        if scene is not None or cell is not None:
+            assert model is not None
+            refuse_unservable(model)
+        runner = Runner(config, model=model, keep_recordings=plots_dir is not None, ik=ik)
+        geoms = runner.cell.handles.target_geoms
+        recorders: list[StateRecorder] = []
+        states: StateRecorder | None = None
+        if record is not None:
+            states = StateRecorder(runner.model, geoms, runner.status, rate=record_rate)
+            recorders.append(states)
+        progress: VideoProgress | None = None
+        video_error: str | None = None
+        if video is not None:
+            progress = VideoProgress(config.cycles, progress_stream, tail=video.tail)
+            workers = (
+                capped_workers(render_workers) if render_workers is not None else default_workers()
+            )
+            try:  # a bad camera or size raises ConfigError here, before anything has run
+                pool = RenderPool(runner.model, video, geoms, workers, progress)
+            except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
+                video_error = str(exc)
+            else:
+                sink = _guarded(pool)
+                recorders.append(
+                    StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
+                )
+    except KeyboardInterrupt as exc:
+        if pool is not None:
+            pool.abort(keep=False)
+        report = unstarted_report(config, exc)
+        if report_path is not None:
+            write_json_atomic(report_path, report)
+        return JobResult(report, report_path, exc)
 
     def closing_shot() -> None:  # the bin with the cylinders in it
         if recorders:
@@ -256,81 +289,6 @@ def run_job(
 
         result.plot_paths = write_plots(plots_dir, runner.results, runner.recordings, runner.robot)
     return result
-
-
-def unstarted(
-    config: RunConfig, report_path: Path | None, interrupt: KeyboardInterrupt
-) -> JobResult:
-    """A run stopped by ``interrupt`` before its first cycle: its report, of no cycles and
-    marked interrupted, is written all the same (a supervisor's SIGTERM during start-up must
-    not leave the report of the previous run in place)."""
-    sys.stderr.write(
-        f"kr210_sim: interrupted before the first cycle ({signal_name(interrupt)}); "
-        "writing a report of no cycles\n"
-    )
-    report = build_report(config, [], 0.0, interrupted=interrupt)
-    if report_path is not None:
-        write_json_atomic(report_path, report)
-    return JobResult(report, report_path, interrupt)
-
-
-def _set_up(
-    config: RunConfig,
-    video: VideoSettings | None,
-    plots_dir: Path | None,
-    progress_stream: TextIO | None,
-    scene: Path | None,
-    ik: UserIk | None,
-    cell: Path | None,
-    record: Path | None,
-    record_rate: float,
-    render_workers: int | None,
-) -> tuple[Any, ...]:
-    """The runner, the model and its identity, the state recorders and the render pool of
-    :func:`run_job`."""
-    # Without --scene or --cell the runner loads the committed scene itself, after the URDF
-    # (a recording or a video needs the model's identity first: then it is loaded here).
-    model = identity = None
-    if scene is not None or cell is not None or record is not None or video is not None:
-        model = model_for(scene, cell)
-        identity = model_identity(model)  # of the model as loaded, before the run changes it
-    if scene is not None or cell is not None:
-        assert model is not None
-        refuse_unservable(model)
-    runner = Runner(
-        config,
-        model=model,
-        keep_recordings=plots_dir is not None,
-        ik=ik,
-    )
-    geoms = runner.cell.handles.target_geoms
-    recorders: list[StateRecorder] = []
-    states: StateRecorder | None = None
-    if record is not None:
-        states = StateRecorder(runner.model, geoms, runner.status, rate=record_rate)
-        recorders.append(states)
-    pool: RenderPool | None = None
-    progress: VideoProgress | None = None
-    video_error: str | None = None
-    if video is not None:
-        progress = VideoProgress(config.cycles, progress_stream, tail=video.tail)
-        workers = (
-            capped_workers(render_workers) if render_workers is not None else default_workers()
-        )
-        try:  # a bad camera or size raises ConfigError here, before anything has run
-            pool = RenderPool(runner.model, video, geoms, workers, progress)
-        except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
-            video_error = str(exc)
-        else:
-            try:
-                sink = _guarded(pool)
-                recorders.append(
-                    StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
-                )
-            except BaseException:
-                pool.abort(keep=False)
-                raise
-    return runner, model, identity, recorders, states, pool, progress, video_error
 
 
 def _guarded(pool: RenderPool) -> Any:

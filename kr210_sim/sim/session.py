@@ -15,6 +15,7 @@ cycle plan (:attr:`kr210_sim.sim.runner.Runner.on_phase`); none of them changes 
 from __future__ import annotations
 
 import copy
+import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.interrupts import check as check_interrupt
+from kr210_sim.util.interrupts import signal_name
 
 import mujoco  # isort: skip
 
@@ -161,3 +163,14 @@ def runner_report(
         report["cell"]["ready_q_deg"] = np.degrees(runner.planner.ready_q).round(3).tolist()
         report["cell"]["ready_note"] = runner.planner.ready_note
     return report
+
+
+def unstarted_report(config: RunConfig, interrupt: BaseException) -> dict[str, Any]:
+    """The report of a run stopped by ``interrupt`` before its first cycle: no cycles, marked
+    interrupted (written all the same: a supervisor's SIGTERM during start-up must not leave
+    the report of an earlier run in place)."""
+    sys.stderr.write(
+        f"kr210_sim: interrupted before the first cycle ({signal_name(interrupt)}); "
+        "writing a report of no cycles\n"
+    )
+    return build_report(config, [], 0.0, interrupted=interrupt)
