@@ -58,6 +58,7 @@ from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import model_at
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
+from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.planner import gripper_pose
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
@@ -179,6 +180,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             )
         #: The episode's runner (:func:`~kr210_sim.sim.session.episode_runner`, on this
         #: environment's model): its cell is :attr:`cell`, its planner is the expert's.
+        #: One collision checker for every episode's runner (the model stays the same).
+        self._checker = CollisionChecker(self.model, self.kinematics)
         self.runner = self._runner(RunConfig(cycles=1), None)
         self.cell: Cell = self.runner.cell
         self.ready_q = np.asarray(self.motion.ready_q, dtype=np.float64)
@@ -352,6 +355,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             copy_model=False,
             robot=self.robot,
             rng=rng,
+            checker=self._checker,
         )
 
     def _check_action(self, action: npt.ArrayLike) -> FloatArray:

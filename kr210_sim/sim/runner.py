@@ -142,6 +142,8 @@ class Runner:
             meets an unusable answer is scored ``ik_failed``.
         rng: The generator slots and targets are drawn from (default: one seeded with
             ``config.seed``).
+        checker: A collision checker of ``model`` to plan with (default: one built for it; a
+            Gymnasium environment keeps one for all its episodes).
     """
 
     def __init__(
@@ -152,6 +154,7 @@ class Runner:
         keep_recordings: bool = False,
         ik: UserIk | None = None,
         rng: np.random.Generator | None = None,
+        checker: CollisionChecker | None = None,
     ) -> None:
         self.config = config
         self.robot = robot or load_robot()
@@ -163,7 +166,8 @@ class Runner:
                 f"{self.layout.name!r}, got {config.slot}"
             )
         self.cell = Cell(self.model)
-        checker = CollisionChecker(self.model, Kinematics(self.robot))
+        if checker is None:
+            checker = CollisionChecker(self.model, Kinematics(self.robot))
         self.planner = Planner(self.robot, config.motion, ik, checker, config.seed)
         self.planner.check_ready()
         self.rng = rng if rng is not None else np.random.default_rng(config.seed)

@@ -23,6 +23,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.robot.description import RobotDescription
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
@@ -45,6 +46,7 @@ def episode_runner(
     ik: UserIk | None = None,
     keep_recordings: bool = False,
     rng: np.random.Generator | None = None,
+    checker: CollisionChecker | None = None,
 ) -> Runner:
     """A fresh runner for one cycle of ``RunConfig(cycles=1, seed=seed, slot=slot,
     randomize=randomize)``: the arm at the ready pose, every target spare, the bin empty.
@@ -64,6 +66,7 @@ def episode_runner(
         keep_recordings: Keep the cycle's per-tick recording (for plots).
         rng: The generator the slot and target are drawn from, instead of one seeded with
             ``seed`` (a Gymnasium environment passes its own ``np_random``).
+        checker: A collision checker of the model to plan with (default: one built for it).
 
     Raises:
         ConfigError: A slot outside the cell.
@@ -71,7 +74,15 @@ def episode_runner(
     config = RunConfig(cycles=1, seed=seed, slot=slot, randomize=randomize)
     if model is not None and copy_model:
         model = copy.copy(model)
-    return Runner(config, model=model, robot=robot, keep_recordings=keep_recordings, ik=ik, rng=rng)
+    return Runner(
+        config,
+        model=model,
+        robot=robot,
+        keep_recordings=keep_recordings,
+        ik=ik,
+        rng=rng,
+        checker=checker,
+    )
 
 
 @dataclass(frozen=True, slots=True)
