@@ -182,6 +182,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         #: environment's model): its cell is :attr:`cell`, its planner is the expert's.
         #: One collision checker for every episode's runner (the model stays the same).
         self._checker = CollisionChecker(self.model, self.kinematics)
+        self._seed = 0  # the last seed reset was given
         self.runner = self._runner(RunConfig(cycles=1), None)
         self.cell: Cell = self.runner.cell
         self.ready_q = np.asarray(self.motion.ready_q, dtype=np.float64)
@@ -221,7 +222,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         """Start an episode: the arm at the ready pose, a fresh cylinder in a slot.
 
         With ``seed=s`` the cylinder is the one ``run --cycles 1 --seed s`` spawns (same slot
-        draw, same sampler), given the same ``slot`` and ``randomize``.
+        draw, same sampler), given the same ``slot`` and ``randomize``, and the episode's runner
+        (whose planner the scripted expert uses) plans as that run's does, seeded with ``s``;
+        without a seed, with the last one given (0 before any).
 
         Args:
             seed: Seed of the episode's generator.
@@ -240,8 +243,13 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         n = self.layout.n_slots
         if isinstance(slot, bool) or not isinstance(slot, (int, np.integer)) or not 0 <= slot <= n:
             raise ConfigError(f"slot must be 0 (random) or 1-{n}, got {slot!r}")
+        if seed is not None:  # the runner plans with it as `run --seed` does (OMPL's seed)
+            self._seed = int(seed)
         config = RunConfig(
-            cycles=1, slot=int(slot), randomize=bool(options.get("randomize", base.randomize))
+            cycles=1,
+            seed=self._seed,
+            slot=int(slot),
+            randomize=bool(options.get("randomize", base.randomize)),
         )
         self.runner = self._runner(config, self.np_random)
         self.cell = self.runner.cell
@@ -349,6 +357,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
     def _runner(self, config: RunConfig, rng: np.random.Generator | None) -> Runner:
         """A fresh episode runner on this environment's model (the renderer draws it)."""
         return episode_runner(
+            config.seed,
             slot=config.slot,
             randomize=config.randomize,
             model=self.model,
