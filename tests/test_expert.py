@@ -12,7 +12,7 @@ from kr210_sim.cell.toml import PUBLISHED_CELL  # noqa: E402
 from kr210_sim.envs import ENV_ID, ScriptedExpert  # noqa: E402
 from kr210_sim.envs.pick_place import PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ConfigError  # noqa: E402
-from kr210_sim.score.scoring import REST_SPEED, REST_SPIN, in_bin  # noqa: E402
+from kr210_sim.score.scoring import in_bin  # noqa: E402
 from kr210_sim.sim.session import episode_runner  # noqa: E402
 
 CELLS = PUBLISHED_CELL.parent
@@ -37,7 +37,8 @@ def _episode(env: gym.Env, expert: ScriptedExpert, seed: int) -> tuple[bool, int
         position = cell.target_pose()[0]
         assert in_bin(position, env.unwrapped.bin)
         assert np.array_equal(position, obs["achieved_goal"])
-        assert cell.target_speed() < REST_SPEED and cell.target_spin() < REST_SPIN
+        mass = env.unwrapped.target.spec.mass  # it cannot leave: too little energy to rise
+        assert position[2] + cell.target_energy() / (mass * 9.81) < env.unwrapped.bin.rim
         assert not any(cell.finger_target_contacts()) and info["robot_cell_contacts"] == 0
         assert reward == 0.0 and terminated and not truncated
     return bool(info["is_success"]), steps, worst

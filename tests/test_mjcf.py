@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 
 import mujoco
@@ -192,3 +193,37 @@ def test_a_planning_build_keeps_the_finer_hulls(model: mujoco.MjModel) -> None:
 
     assert hull_vertices(model) < 0.5 * hull_vertices(fine)
     assert max(stick_out(fine).values()) <= 0.005
+
+
+@pytest.mark.parametrize("v0", [0.2, 0.3])
+def test_a_cylinder_rolling_on_its_side_stops_where_the_wood_floor_says(
+    model: mujoco.MjModel, v0: float
+) -> None:
+    """A cylinder laid on its side on the bin floor and set rolling at ``v0`` [m/s] stops after
+    1.5 v0^2 r / (2 b g): the rolling resistance torque b N (b = WOOD_ROLLING, iron on wood)
+    brakes a solid cylinder (I = m r^2 / 2) rolling without slip. Without rolling resistance
+    it would roll on to the far wall, 0.73 m away."""
+    from kr210_sim.cell.layout import CellLayout
+    from kr210_sim.cell.mjcf import WOOD_ROLLING
+
+    m = copy.copy(model)
+    cell, b = Cell(m), CellLayout.from_model(m).bin
+    h = cell.handles
+    r = float(m.geom_size[h.target_geoms[0], 0])
+    a, dof = int(h.target_qpos[0]), int(h.target_dof[0])
+    x0 = b.center[0] - b.inner_half[0] + 0.1
+    q = np.array([math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0])  # axis along y
+    cell.data.qpos[a : a + 7] = (x0, b.center[1], b.floor_top + r, *q)
+    R = np.empty(9)
+    mujoco.mju_quat2Mat(R, q)
+    cell.data.qvel[dof : dof + 3] = (v0, 0.0, 0.0)
+    cell.data.qvel[dof + 3 : dof + 6] = R.reshape(3, 3).T @ (0.0, v0 / r, 0.0)  # no slip
+    mujoco.mj_forward(m, cell.data)
+    steps = 0
+    while cell.target_speed(0) > 1e-3 and steps < 2000:
+        mujoco.mj_step(m, cell.data)
+        steps += 1
+    derived = 1.5 * v0**2 * r / (2 * WOOD_ROLLING * 9.81)
+    rolled = float(cell.data.qpos[a] - x0)
+    assert rolled == pytest.approx(derived, rel=0.1), (rolled, derived)
+    assert steps * m.opt.timestep == pytest.approx(v0 / (WOOD_ROLLING * 9.81 / (1.5 * r)), rel=0.1)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -169,3 +170,46 @@ def test_a_target_knocked_over_in_its_slot_is_reported() -> None:
     assert r.grasp_attempts == 1  # no blind retry on a cylinder lying down
     # The toppled cylinder was cleared from the shelf: the next cycle runs normally.
     assert runner.run_cycle(2, 5).success
+
+
+@pytest.mark.slow
+def test_cylinders_dropped_on_a_full_bin(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Nine cylinders in the bin, the tenth dropped on the pile: a success as soon as it cannot
+    leave (the kinetic energy of every cylinder in play, all given to it, could not lift it to
+    the rim), not after waiting for the pile to stop moving. Then the eleventh cycle (the bin
+    emptied, a fresh pile of one) with a cylinder of the pile kicked up at 6 m/s as the wait
+    begins and a wait too short for it to come down: inside the bin but not settled, and the
+    detail says what was measured."""
+    from kr210_sim.score.scoring import GRAVITY, REST_WINDOW
+    from kr210_sim.sim import runner as runner_module
+
+    runner = Runner(RunConfig(cycles=12, seed=3))
+    for i in range(1, 10):
+        assert runner.run_cycle(i, runner.slot_for_cycle()).success
+    assert runner.targets.in_bin_count() == 9
+    r = runner.run_cycle(10, runner.slot_for_cycle())
+    assert r.success and r.reason is None and r.detail == ""
+    assert runner.targets.in_bin_count() == 10
+    assert r.phase_times["settle"] < REST_WINDOW  # decided before any pile could have rested
+    cell, bin_box = runner.cell, runner.layout.bin
+    assert in_bin(r.target_final, bin_box)
+    energy = sum(cell.target_energy(k) for k in runner.targets.in_play)
+    mass = r.target.spec.mass
+    assert r.target_final[2] + energy / (mass * GRAVITY) < bin_box.rim
+
+    assert runner.run_cycle(11, runner.slot_for_cycle()).success  # the bin was emptied first
+    kicked = runner.targets.in_play[0]
+    hold = runner._hold
+
+    def kick_then_hold(seconds: float, rec: Any, phase: str, *args: Any, **kw: Any) -> float:
+        if phase == "settle":
+            dof = int(cell.handles.target_dof[kicked])
+            cell.data.qvel[dof : dof + 3] = (0.0, 0.0, 6.0)
+        return hold(seconds, rec, phase, *args, **kw)
+
+    monkeypatch.setattr(runner, "_hold", kick_then_hold)
+    monkeypatch.setattr(runner_module, "SETTLE_TIMEOUT", 0.1)
+    r = runner.run_cycle(12, runner.slot_for_cycle())
+    assert r.reason == "not_settled" and in_bin(r.target_final, bin_box)
+    assert "inside the bin" in r.detail and "mJ, enough to lift it" in r.detail, r.detail
+    assert r.phase_times["settle"] == pytest.approx(0.1)

@@ -15,14 +15,23 @@ from kr210_sim.score.scoring import (
     Outcome,
     RestCounter,
     bin_region,
+    contained,
     episode_success,
     in_bin,
     is_still,
     judge,
+    outcome_decided,
     plan_failure,
     rest_window_ticks,
+    rise,
     score,
 )
+
+
+def lifting(h: float, mass: float = 0.05) -> float:
+    """Energy [J] that lifts a target of ``mass`` [kg] by ``h`` [m]."""
+    return mass * 9.81 * h
+
 
 BIN = BinBox(center=(0.0, 2.5), inner_half=(0.44, 0.44), floor_top=0.05, rim=1.0)
 IN_BIN = np.array([0.05, 2.5, 0.1])
@@ -67,7 +76,15 @@ def test_success() -> None:
         ({"released": False}, Outcome.DROPPED_IN_TRANSIT),
         ({"target_position": np.array([0.7, 2.5, 0.05])}, Outcome.MISSED_BIN),
         ({"target_position": np.array([0.0, 2.5, 1.2])}, Outcome.MISSED_BIN),  # on the rim
-        ({"rested_for": REST_WINDOW - 0.002}, Outcome.MISSED_BIN),  # still, but not for long
+        # centre inside, rolling on the floor: it cannot leave (0.1 m/s lifts it 0.5 mm)
+        ({"rested_for": 0.0, "target_speed": 0.1, "energy": lifting(0.0005)}, Outcome.SUCCESS),
+        # centre inside, but what moves in the bin could lift it over the rim (0.9 m up)
+        ({"rested_for": 0.0, "energy": lifting(0.91)}, Outcome.NOT_SETTLED),
+        ({"rested_for": 0.0, "energy": lifting(0.89)}, Outcome.SUCCESS),
+        # the same energy lifts a lighter target higher
+        ({"energy": lifting(0.89), "target_mass": 0.03}, Outcome.NOT_SETTLED),
+        # never missed_bin with the centre inside, however it moves
+        ({"rested_for": 0.0, "energy": 10.0, "target_speed": 20.0}, Outcome.NOT_SETTLED),
     ],
 )
 def test_failure_reasons(changes: dict[str, object], expected: Outcome) -> None:
@@ -85,19 +102,31 @@ def test_plan_failures_by_error() -> None:
     assert plan_failure(UnreachablePoseError("x")) is Outcome.UNREACHABLE
 
 
-def test_moving_at_the_end_is_not_at_rest() -> None:
-    """The settle wait's rest count, fed tick by tick: one moving tick at the end restarts it,
-    so a target still moving when the wait ends is not scored at rest."""
+def test_contained_is_the_energy_bound() -> None:
+    centre, half = bin_region(BIN)
+    z = IN_BIN[2]
+    up = BIN.rim - z
+    assert contained(IN_BIN, up - 1e-6, centre, half)
+    assert not contained(IN_BIN, up + 1e-6, centre, half)
+    assert not contained([0.7, 2.5, 0.3], 0.0, centre, half)  # outside the walls
+    assert rise(lifting(0.2), 0.05) == pytest.approx(0.2)
+    # vectorised over a batch
+    batch = contained(np.array([IN_BIN, IN_BIN]), np.array([0.0, 1.0]), centre, half)
+    assert batch.tolist() == [True, False]
+
+
+def test_the_settle_wait_ends_when_the_outcome_is_decided() -> None:
+    """Inside the bin for good: decided at once, moving or not. Elsewhere: decided once still for
+    the rest window, counted tick by tick (one moving tick restarts the count)."""
+    assert outcome_decided(IN_BIN, 0.0, lifting(0.001), 0.05, BIN)
+    assert not outcome_decided(IN_BIN, 0.0, lifting(0.95), 0.05, BIN)  # could still leave
+    floor = np.array([1.5, 1.0, 0.1])  # fell beside the bin
     rest = RestCounter(0.002)
     ticks = [rest.update(0.0, 0.0) for _ in range(rest.window)]
     assert ticks[-1] and not any(ticks[:-1]) and rest.rested_for == pytest.approx(REST_WINDOW)
-    assert score(obs(rested_for=rest.rested_for), BIN) is Outcome.SUCCESS
-    speed = REST_SPEED * 5
-    assert not rest.update(speed, 0.0) and rest.rested_for == 0.0
-    moving = obs(target_speed=speed, rested_for=rest.rested_for)
-    outcome, detail = judge(moving, BIN)
-    assert outcome is Outcome.MISSED_BIN
-    assert "inside the bin" in detail and f"moving at {speed:.3f} m/s" in detail
+    assert outcome_decided(floor, rest.rested_for, lifting(0.5), 0.05, BIN)
+    assert not rest.update(REST_SPEED * 5, 0.0) and rest.rested_for == 0.0
+    assert not outcome_decided(floor, rest.rested_for, 0.0, 0.05, BIN)
     rest.update(0.0, REST_SPIN * 2)  # turning fast with a still centre is moving too
     assert rest.rested_for == 0.0
 
@@ -134,6 +163,10 @@ def test_moving_at_the_end_is_not_at_rest() -> None:
             {"target_position": np.array([0.7, 2.5, 0.05])},
             ["ended outside the bin at [0.7, 2.5, 0.05]"],
         ),
+        (
+            {"energy": 0.5, "target_speed": 4.47, "target_spin": 1.5},
+            ["inside the bin at [0.05, 2.5, 0.1]", "4.470 m/s and 1.50 rad/s", "500.0 mJ"],
+        ),
     ],
 )
 def test_detail_says_what_was_measured(changes: dict[str, object], words: list[str]) -> None:
@@ -150,14 +183,14 @@ def test_episode_success_is_the_cycle_rule() -> None:
         {},
         {"robot_env_contacts": 1},
         {"released": False},
-        {"rested_for": 0.1},
+        {"energy": lifting(0.95)},
         {"target_position": np.array([0.7, 2.5, 0.05])},
         {"target_position": np.array([0.0, 2.5, 1.2])},
     ]
     observed = [obs(**c) for c in cases]
     batch = episode_success(
         np.array([o.target_position for o in observed]),
-        np.array([o.rested_for for o in observed]),
+        rise([o.energy for o in observed], [o.target_mass for o in observed]),
         np.array([o.released for o in observed]),
         np.array([o.robot_env_contacts for o in observed]),
         centre,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pytest
 
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.load import load_model
@@ -92,3 +93,22 @@ def test_every_moving_link_can_touch_every_cell_part() -> None:
                 link,
                 model.geom(env).name,
             )
+
+
+def test_target_energy_is_translation_plus_rotation() -> None:
+    """½ m v² + ½ ωᵀ I ω of a cylinder thrown and spun about a tilted axis (I from its size)."""
+    model = load_model()
+    cell = Cell(model)
+    h = cell.handles
+    a, dof, b = int(h.target_qpos[3]), int(h.target_dof[3]), int(h.target_bodies[3])
+    cell.data.qpos[a : a + 7] = (0.0, 2.5, 2.0, 0.9, 0.3, 0.2, 0.25)
+    mujoco.mju_normalize4(cell.data.qpos[a + 3 : a + 7])
+    v, w = np.array([0.5, -1.0, 2.0]), np.array([3.0, -2.0, 1.0])  # w in the body frame
+    cell.data.qvel[dof : dof + 6] = (*v, *w)
+    m = float(model.body_mass[b])
+    r, half = model.geom_size[h.target_geoms[3], :2]
+    ixx = m * (3 * r * r + (2 * half) ** 2) / 12
+    inertia = np.array([ixx, ixx, m * r * r / 2])
+    expected = 0.5 * m * v.dot(v) + 0.5 * inertia.dot(w * w)
+    assert cell.target_energy(3) == pytest.approx(expected, rel=1e-9)
+    assert cell.target_energy(4) == 0.0

@@ -58,13 +58,25 @@ from kr210_sim.util.paths import MESH_DIR, SCENE_PATH, SCENES_DIR, URDF_PATH
 
 import mujoco  # isort: skip  (after kr210_sim so MUJOCO_GL is chosen first)
 
-#: Friction of the bin floor (a rubber mat): sliding, torsional [m], rolling [m]. Its rolling
+#: Coefficient of rolling friction of steel on steel, as a length [m] (MuJoCo's rolling
+#: friction: the largest rolling torque is this times the normal force): 0.02 in = 0.5 mm,
+#: "iron on iron" in eMachineShop's table of rolling friction (emachineshop.com/rolling-friction),
+#: 0.5 mm "steel wheels on steel rails" in the Engineering ToolBox's
+#: (engineeringtoolbox.com/rolling-friction-resistance-d_1303.html). The target cylinders are
+#: steel, and so are the bin's walls.
+STEEL_ROLLING = 0.0005
+#: Coefficient of rolling friction of steel on wood [m]: 0.22 in = 5.6 mm, "iron on wood" in the
+#: same eMachineShop table. The bin's floor is lined with wood, as parts bins are against dents.
+WOOD_ROLLING = 0.0056
+#: Torsional friction of the parts' contacts [m] (the largest torque about the contact normal
+#: is this times the normal force).
+PART_TORSION = 0.01
+#: Friction of the bin floor (the wood liner): sliding, torsional [m], rolling [m]. Its rolling
 #: resistance (condim 6, and a higher priority than the targets', so its parameters apply: its
-#: contact stiffness is therefore the targets' too, GRASP_SOLREF) lets a
-#: cylinder that lands on its side come to rest instead of rolling wall to wall, and one that
-#: lands upright stop rocking on its rim. Without it 2 of 300 randomised cycles ended still
-#: rolling after 3 s; with 2 mm, 1 of 200 ten-cycle runs ended with a cylinder rocking.
-BIN_FLOOR_FRICTION = (1.0, 0.01, 0.005)
+#: contact stiffness is therefore the targets' too, GRASP_SOLREF) stops a cylinder rolling on
+#: its side within 1.5 v^2 r / (2 WOOD_ROLLING g) (0.06 m from 0.3 m/s for r = 5 cm) and damps
+#: one rocking on its rim.
+BIN_FLOOR_FRICTION = (1.0, PART_TORSION, WOOD_ROLLING)
 #: Simulation timestep in [s].
 TIMESTEP = 0.002
 #: Offscreen framebuffer size in [px] (largest video frame).
@@ -300,8 +312,11 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
             rgba=list(TARGET_RGBA),
             contype=TARGET_BIT,
             conaffinity=TARGET_AFFINITY,
-            condim=4,
-            friction=[t.friction, 0.01, 0.0001],
+            # condim 6: rolling and torsional resistance in every contact whose parameters are
+            # the targets' (the higher priority): on another target, a wall, a finger pad, so a
+            # cylinder on a pile stops rolling instead of shifting for seconds.
+            condim=6,
+            friction=[t.friction, PART_TORSION, STEEL_ROLLING],
             priority=1,
             solref=list(GRASP_SOLREF),
             solimp=list(GRASP_SOLIMP),

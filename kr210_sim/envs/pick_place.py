@@ -34,9 +34,11 @@ An action with NaN or infinite entries, of the wrong shape or outside [-1, 1] ra
 Success (``info["is_success"]``) is decided by the runner's scoring
 (:func:`kr210_sim.score.scoring.episode_success`, the rule :func:`~kr210_sim.score.scoring.score`
 applies to a cycle): no robot contact with the cell during the episode (counted every physics
-tick, ``info["robot_cell_contacts"]``), the fingers off the cylinder, its centre in the bin and
-still for ``REST_WINDOW`` (one :class:`~kr210_sim.score.scoring.RestCounter`, fed every physics
-tick as the runner feeds it). Reward:
+tick, ``info["robot_cell_contacts"]``), the fingers off the cylinder, and the cylinder in the bin
+for good (:func:`~kr210_sim.score.scoring.contained`: its centre inside the walls and below the
+rim, and its kinetic energy could not lift it to the rim; ``info["lift"]`` is that height [m]).
+``info["rested_for"]`` says how long it has been still (:func:`~kr210_sim.score.scoring.is_still`,
+counted every physics tick as ``run`` counts it). Reward:
 ``"sparse"`` (default) -1 per step until success, 0 then; ``"dense"`` minus the distance from the
 cylinder to the goal and half the distance from the gripper to the cylinder, 0 on success.
 Episodes terminate on success and are truncated after ``max_steps`` steps.
@@ -63,7 +65,7 @@ from kr210_sim.plan.planner import gripper_pose
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.result import TargetSample
-from kr210_sim.score.scoring import RestCounter, bin_region, episode_success
+from kr210_sim.score.scoring import RestCounter, bin_region, episode_success, rise
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import episode_runner
@@ -214,6 +216,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.grip_cmd = -1.0
         self._rest = RestCounter(self.model.opt.timestep)
         self._contacts = 0
+        self._mass = self.layout.target.mass
 
     # -- Gymnasium API -----------------------------------------------------------------------
     def reset(
@@ -254,6 +257,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.runner = self._runner(config, self.np_random)
         self.cell = self.runner.cell
         self.target, _ = self.runner.start_cycle(1, self.runner.slot_for_cycle())
+        self._mass = self.target.spec.mass
         self.q_cmd = self.ready_q.copy()
         T = self.kinematics.forward(self.q_cmd)
         self.p_cmd, self.yaw_cmd = T[:3, 3].copy(), _yaw(T[:3, :3])
@@ -307,9 +311,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         The goal counts as reached by the runner's rule
         (:func:`kr210_sim.score.scoring.episode_success`) with the goal region
         :data:`goal_half_extents` around the desired goal (for the bin, its inside): the achieved
-        goal in the region, the cylinder still for ``REST_WINDOW`` (``info["rested_for"]``), the
-        fingers off it (``info["released"]``) and no robot-cell contact in the episode
-        (``info["robot_cell_contacts"]``).
+        goal in the region for good (its kinetic energy could not lift it to the region's top,
+        ``info["lift"]``), the fingers off it (``info["released"]``) and no robot-cell contact
+        in the episode (``info["robot_cell_contacts"]``).
 
         Args:
             achieved_goal: Shape (3,) or (n, 3) [m].
@@ -324,7 +328,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         dg = np.asarray(desired_goal, dtype=np.float64)
         reached = episode_success(
             ag,
-            _info_values(info, "rested_for"),
+            _info_values(info, "lift"),
             _info_values(info, "released"),
             _info_values(info, "robot_cell_contacts"),
             dg,
@@ -439,15 +443,16 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
     def _info(self) -> dict[str, Any]:
         c = self.cell
         position = c.target_pose()[0]
-        rested_for = self._rest.rested_for
+        lift = float(rise(c.target_energy(), self._mass))
         released = not any(c.finger_target_contacts())
         success = episode_success(
-            position, rested_for, released, self._contacts, self.goal, self.goal_half_extents
+            position, lift, released, self._contacts, self.goal, self.goal_half_extents
         )
         sensors = c.data.sensordata[list(c.handles.env_contact_sensors)]
         return {
             "is_success": bool(success),
-            "rested_for": rested_for,
+            "lift": lift,
+            "rested_for": self._rest.rested_for,
             "released": released,
             "gripper_to_target": float(np.linalg.norm(c.gripper_pose()[:3, 3] - position)),
             "robot_cell_contact": bool(sensors.any()),  # shelf, bin, obstacles, floor

@@ -33,6 +33,8 @@ OUTCOME_COLOURS = {
     "dropped_in_transit": "#9467bd",
     "missed_bin": "#8c564b",
     "ik_failed": "#17becf",
+    "no_path": "#bcbd22",
+    "not_settled": "#c49c94",
 }
 
 

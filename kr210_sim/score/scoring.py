@@ -3,7 +3,14 @@
 This module is the one owner of the rule for success. Scoring is a pure function of a
 :class:`CycleObservation` (filled in by the runner from the simulation), so every failure reason
 can be tested on constructed situations; the Gymnasium environment judges its episodes with the
-same functions (:func:`episode_success`), and both count rest with one :class:`RestCounter`.
+same function (:func:`episode_success`), and the runner's settle wait ends by it
+(:func:`outcome_decided`).
+
+The end of a cycle: the target is in the bin for good when its centre is inside the walls and
+below the rim and the kinetic energy of every cylinder in play, all given to it, could not lift
+its centre to the rim (:func:`contained`: ``z + E / (m g) < rim``): it cannot leave, whether it
+is still or not. A centre inside the bin that could still rise over the rim when the settle wait
+ends is ``not_settled``; only a centre outside the bin is ``missed_bin``.
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ from kr210_sim.cell.layout import BinBox
 from kr210_sim.errors import IkFailedError, NoPathError
 
 __all__ = [
+    "GRAVITY",
     "REST_SPEED",
     "REST_SPIN",
     "REST_WINDOW",
@@ -26,14 +34,17 @@ __all__ = [
     "Outcome",
     "RestCounter",
     "bin_region",
+    "contained",
     "describe",
     "episode_success",
     "in_bin",
     "in_region",
     "is_still",
     "judge",
+    "outcome_decided",
     "plan_failure",
     "rest_window_ticks",
+    "rise",
     "score",
 ]
 
@@ -54,6 +65,9 @@ class Outcome(StrEnum):
     IK_FAILED = "ik_failed"
     #: No collision-free plan exists for a move of the cycle (scored before the arm moves).
     NO_PATH = "no_path"
+    #: The target's centre is in the bin, but when the settle wait ended the cylinders in play
+    #: still moved fast enough to lift it over the rim (see :func:`contained`).
+    NOT_SETTLED = "not_settled"
 
 
 #: Largest linear speed of a target counted as still [m/s].
@@ -65,8 +79,8 @@ REST_SPIN = 0.2
 REST_WINDOW = 0.25
 #: Tilt of a target's axis from the vertical beyond which it counts as knocked over [deg].
 TOPPLED_TILT_DEG = 30.0
-#: Slack on time comparisons [s] (a sum of ticks of 2 ms is not exactly REST_WINDOW).
-_TIME_SLACK = 1e-9
+#: Gravitational acceleration [m/s^2] (the scene's ``gravity``, MuJoCo's default).
+GRAVITY = 9.81
 
 
 def is_still(speed: float, spin: float) -> bool:
@@ -123,6 +137,9 @@ class CycleObservation:
         target_speed: Final linear speed of the target in [m/s].
         target_spin: Final angular speed of the target in [rad/s].
         rested_for: How long the target had been still (:func:`is_still`) at the end [s].
+        target_mass: The target's mass [kg].
+        energy: Kinetic energy of every cylinder in play at the end, the target's included [J]
+            (what could still be given to the target, :func:`contained`).
         plan_failure: Why no plan existed (:attr:`Outcome.UNREACHABLE`, ``IK_FAILED`` or
             ``NO_PATH``, see :func:`plan_failure`), None when the cycle was planned.
         plan_message: The planner's sentence on that failure.
@@ -143,6 +160,8 @@ class CycleObservation:
     target_speed: float
     target_spin: float
     rested_for: float
+    target_mass: float = 0.05
+    energy: float = 0.0
     plan_failure: Outcome | None = None
     plan_message: str = ""
     target_tilt_deg: float = 0.0
@@ -202,23 +221,41 @@ def in_bin(position: npt.ArrayLike, bin_box: BinBox, margin: float = 0.0) -> boo
     )
 
 
-def _placed(
-    position: npt.ArrayLike, rested_for: npt.ArrayLike, centre: npt.ArrayLike, half: npt.ArrayLike
+def rise(energy: npt.ArrayLike, mass: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """How high ``energy`` [J], all turned into height, could lift a body of ``mass`` [kg] [m]."""
+    return np.asarray(energy, dtype=np.float64) / (np.asarray(mass, dtype=np.float64) * GRAVITY)
+
+
+def contained(
+    position: npt.ArrayLike, lift: npt.ArrayLike, centre: npt.ArrayLike, half: npt.ArrayLike
 ) -> npt.NDArray[np.bool_]:
-    """The target's part of a success: its centre inside the region and still
-    (:func:`is_still`) for :data:`REST_WINDOW` in a row (vectorised over leading axes)."""
-    rested = np.asarray(rested_for, dtype=np.float64) >= REST_WINDOW - _TIME_SLACK
-    return in_region(position, centre, half) & rested
+    """Whether a target is in the region for good: its centre inside the region's walls and
+    below its top, and ``lift`` [m] (:func:`rise` of the energy that could be given to it) not
+    enough to bring the centre up to the top. To leave over a wall its centre has to pass above
+    the wall's top edge, so with no more energy than that it cannot leave, moving or not.
+    Vectorised over leading axes.
+
+    Args:
+        position: Target centres, shape (..., 3) [m].
+        lift: Height the energy could lift each target [m].
+        centre: Region centres, shape (3,) or (..., 3) [m].
+        half: Region half extents, shape (3,) [m].
+    """
+    p = np.asarray(position, dtype=np.float64)
+    top = np.asarray(centre, dtype=np.float64)[..., 2] + np.asarray(half, dtype=np.float64)[2]
+    return in_region(p, centre, half) & (p[..., 2] + np.asarray(lift) < top)
 
 
 def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
     """Score a cycle.
 
-    A cycle succeeds when the target rests inside the bin (centre inside the walls, below the
-    rim, still (:func:`is_still`) for :data:`REST_WINDOW`) after the gripper opened, with no
-    robot contact with the shelf or the bin. Otherwise the first failure in this order is
-    returned: the plan's failure (unreachable, ik_failed, no_path), collision, knocked_over (no
-    grip, target tipped over), grasp_missed, dropped_in_transit, missed_bin.
+    A cycle succeeds when, after the gripper opened over the bin, the target is in the bin for
+    good (:func:`contained`: centre inside the walls and below the rim, and the kinetic energy of
+    every cylinder in play could not lift it to the rim), with no robot contact with the cell.
+    Otherwise the first failure in this order is returned: the plan's failure (unreachable,
+    ik_failed, no_path), collision, knocked_over (no grip, target tipped over), grasp_missed,
+    dropped_in_transit, missed_bin (centre outside the bin), not_settled (centre in the bin,
+    but the energy in play could still lift it over the rim).
 
     Args:
         obs: What happened.
@@ -236,9 +273,30 @@ def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
         return Outcome.KNOCKED_OVER if toppled else Outcome.GRASP_MISSED
     if not (obs.held_until_release and obs.released):
         return Outcome.DROPPED_IN_TRANSIT
-    if not _placed(obs.target_position, obs.rested_for, *bin_region(bin_box)):
+    if not in_bin(obs.target_position, bin_box):
         return Outcome.MISSED_BIN
+    if not contained(obs.target_position, rise(obs.energy, obs.target_mass), *bin_region(bin_box)):
+        return Outcome.NOT_SETTLED
     return Outcome.SUCCESS
+
+
+def outcome_decided(
+    position: npt.ArrayLike, rested_for: float, energy: float, mass: float, bin_box: BinBox
+) -> bool:
+    """Whether a cycle's outcome can no longer change while the cell waits: the target is in
+    the bin for good (:func:`contained`), or it has been still for :data:`REST_WINDOW` wherever
+    it lies. The runner's settle wait ends on the first tick this holds.
+
+    Args:
+        position: The target's centre [m], shape (3,).
+        rested_for: How long it has been still [s].
+        energy: Kinetic energy of every cylinder in play [J].
+        mass: The target's mass [kg].
+        bin_box: The bin.
+    """
+    if rested_for >= REST_WINDOW - 1e-9:
+        return True
+    return bool(contained(position, rise(energy, mass), *bin_region(bin_box)))
 
 
 def describe(outcome: Outcome, obs: CycleObservation, bin_box: BinBox) -> str:
@@ -265,10 +323,17 @@ def describe(outcome: Outcome, obs: CycleObservation, bin_box: BinBox) -> str:
     if outcome is Outcome.DROPPED_IN_TRANSIT:
         return f"the target left the fingers before the release; it lies at {p}"
     if outcome is Outcome.MISSED_BIN:
-        where = "inside" if in_bin(obs.target_position, bin_box) else "outside"
         return (
-            f"the target ended {where} the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
+            f"the target ended outside the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
             f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
+        )
+    if outcome is Outcome.NOT_SETTLED:
+        lift = float(rise(obs.energy, obs.target_mass))
+        return (
+            f"the target is inside the bin at {p}, still moving at {obs.target_speed:.3f} m/s and "
+            f"{obs.target_spin:.2f} rad/s when the settle wait ended: the cylinders in play "
+            f"carry {1000 * obs.energy:.1f} mJ, enough to lift it {1000 * lift:.0f} mm, and the "
+            f"rim is {1000 * (bin_box.rim - p[2]):.0f} mm above its centre"
         )
     return outcome.value
 
@@ -281,7 +346,7 @@ def judge(obs: CycleObservation, bin_box: BinBox) -> tuple[Outcome, str]:
 
 def episode_success(
     position: npt.ArrayLike,
-    rested_for: npt.ArrayLike,
+    lift: npt.ArrayLike,
     released: npt.ArrayLike,
     robot_env_contacts: npt.ArrayLike,
     centre: npt.ArrayLike,
@@ -291,12 +356,12 @@ def episode_success(
 
     The episode's policy, not a plan, moves the arm, so the plan and grasp stages do not apply;
     the rest does, as in :func:`score`: no robot contact with the cell during the episode, the
-    fingers let go, the target's centre inside the goal region and still for
-    :data:`REST_WINDOW`. Vectorised over leading axes (a batch of relabelled goals).
+    fingers let go, and the target in the goal region for good (:func:`contained`). Vectorised
+    over leading axes (a batch of relabelled goals).
 
     Args:
         position: Target centres, shape (..., 3) [m].
-        rested_for: How long each target has been still [s].
+        lift: Height the kinetic energy in play could lift each target [m] (:func:`rise`).
         released: Whether the fingers no longer touch the target.
         robot_env_contacts: Ticks with a robot-cell contact so far.
         centre: Goal region centres, shape (3,) or (..., 3) [m] (:func:`bin_region` for the bin).
@@ -304,4 +369,4 @@ def episode_success(
     """
     clean = np.asarray(robot_env_contacts) == 0
     let_go = np.asarray(released, dtype=bool)
-    return clean & let_go & _placed(position, rested_for, centre, half)
+    return clean & let_go & contained(position, lift, centre, half)

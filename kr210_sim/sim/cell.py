@@ -266,6 +266,19 @@ class Cell:
         w = self.data.qvel[dof + 3 : dof + 6]
         return math.sqrt(w.dot(w))
 
+    def target_energy(self, index: int | None = None) -> float:
+        """Kinetic energy of target ``index`` (default: the active one) [J]: translation of its
+        centre of mass and rotation about it (a free joint's angular velocity is in the body
+        frame; the principal inertia is turned into it by the body's ``iquat``)."""
+        k = self.active_target if index is None else index
+        dof, b = self.handles.target_dof[k], self.handles.target_bodies[k]
+        m = self.model
+        v = self.data.qvel[dof : dof + 3]
+        w = np.empty(3)
+        iq = m.body_iquat[b]
+        mujoco.mju_rotVecQuat(w, self.data.qvel[dof + 3 : dof + 6], (iq[0], -iq[1], -iq[2], -iq[3]))
+        return 0.5 * float(m.body_mass[b] * v.dot(v) + m.body_inertia[b].dot(w * w))
+
     def target_in_gripper(self) -> FloatArray:
         """Centre of the active target in the gripper_link frame [m]."""
         b = self.handles.gripper_body

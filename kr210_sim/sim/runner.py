@@ -34,6 +34,7 @@ from kr210_sim.score.scoring import (
     Outcome,
     RestCounter,
     judge,
+    outcome_decided,
     plan_failure,
 )
 from kr210_sim.sim.cell import Cell, Recording, hold
@@ -46,8 +47,9 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Time a freshly spawned target is left to settle before it is observed [s].
 SPAWN_SETTLE = 0.1
-#: Longest wait for a released target to come to rest (see :func:`kr210_sim.score.scoring.is_still`)
-#: [s].
+#: Longest wait after the return move for a cycle's outcome to be decided
+#: (:func:`kr210_sim.score.scoring.outcome_decided`: the target in the bin for good, or still
+#: wherever it lies) [s].
 SETTLE_TIMEOUT = 4.0
 #: Most cycles one run takes (about 12 h of simulated time, 15 min of wall time); use
 #: ``evaluate`` for more.
@@ -382,14 +384,18 @@ class Runner:
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
         rest = RestCounter(self.model.opt.timestep)
-        self._hold(
-            SETTLE_TIMEOUT,
-            rec,
-            "settle",
-            phases,
-            until=lambda c: rest.update(c.target_speed(), c.target_spin()),
-            step=False,
-        )
+        mass = float(self.model.body_mass[cell.handles.target_bodies[k]])
+        in_play = tuple(self.targets.in_play)
+
+        def energy(c: Cell) -> float:
+            return sum(c.target_energy(j) for j in in_play)
+
+        def decided(c: Cell) -> bool:  # the outcome can no longer change: stop waiting
+            rest.update(c.target_speed(), c.target_spin())
+            position = c.target_pose()[0]
+            return outcome_decided(position, rest.rested_for, energy(c), mass, self.layout.bin)
+
+        self._hold(SETTLE_TIMEOUT, rec, "settle", phases, until=decided, step=False)
         if not confirmed and tilt <= TOPPLED_TILT_DEG:  # it may have tipped after the last try
             tilt = self.target_tilt_deg(k)
         obs = CycleObservation(
@@ -401,6 +407,8 @@ class Runner:
             target_speed=cell.target_speed(k),
             target_spin=cell.target_spin(k),
             rested_for=rest.rested_for,
+            target_mass=mass,
+            energy=energy(cell),
             plan_failure=failure,
             plan_message=failure_message,
             target_tilt_deg=0.0 if confirmed else tilt,
