@@ -71,6 +71,7 @@ def test_rrtconnect_goes_around_the_column_and_is_seeded(
     again = sampler.plan(ready, goal)
     assert np.array_equal(again.waypoints, way)  # the same seed, the same path
     assert plan_seed(3, ready, goal, False) != plan_seed(4, ready, goal, False)
+    assert 0 < plan_seed(2**130 + 3, ready, goal, True) < 2**32  # evaluation seeds are large
 
 
 def test_a_goal_inside_the_column_is_no_path_with_what_blocks(

@@ -99,7 +99,7 @@ def lever_arms(model: mujoco.MjModel) -> FloatArray:
 def plan_seed(run_seed: int, q_start: FloatArray, q_goal: FloatArray, held: bool) -> int:
     """OMPL seed of one plan: from the run's seed and the plan's ends (never 0)."""
     h = hashlib.sha256()
-    h.update(int(run_seed).to_bytes(8, "little", signed=True))
+    h.update(str(int(run_seed)).encode())  # any size: evaluation seeds exceed 64 bits
     h.update(np.round(np.asarray(q_start, dtype=np.float64), 9).tobytes())
     h.update(np.round(np.asarray(q_goal, dtype=np.float64), 9).tobytes())
     h.update(b"held" if held else b"free")
