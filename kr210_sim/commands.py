@@ -37,6 +37,15 @@ def _load_ik(spec: str | None, timeout: float | None = None) -> Any:
     return load_user_ik(spec, timeout)
 
 
+def _duration(seconds: float) -> str:
+    """A time [s] in the unit that reads best: us below 1 ms, ms below 1 s, else s."""
+    if seconds < 1e-3:
+        return f"{1e6 * seconds:.1f} us"
+    if seconds < 1.0:
+        return f"{1e3 * seconds:.1f} ms"
+    return f"{seconds:.2f} s"
+
+
 def _video_options(args: argparse.Namespace) -> dict[str, Any]:
     """The video options given on the command line (VideoSettings holds the defaults)."""
     return {
@@ -128,8 +137,8 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
     if "ik" in summary:
         s, t = summary["ik"], summary["ik"]["wall_time_s"]
         out.write(
-            f"  IK {s['spec']}: {s['calls']} calls, {1e6 * t['per_call_mean']:.1f} us mean, "
-            f"{1e6 * t['per_call_max']:.1f} us max per call\n"
+            f"  IK {s['spec']}: {s['calls']} calls, {_duration(t['per_call_mean'])} mean, "
+            f"{_duration(t['per_call_max'])} max per call\n"
         )
     out.write(f"  report: {result.path}\n")
     if result.record_path is not None and result.record_frames:
@@ -192,6 +201,10 @@ def view(args: argparse.Namespace) -> int:
     if args.joints:
         if args.demo:
             raise ConfigError("--joints has no task to step through: drop --demo")
+        if args.replay is not None:
+            raise ConfigError(
+                "--joints poses the arm by hand; --replay plays a recording: drop one"
+            )
         run_joints(settings)
         return 0
     if args.replay is not None:
@@ -275,8 +288,13 @@ def evaluate(args: argparse.Namespace) -> int:
     if ex["backend"] == "ray":
         where += f" ({ex['nodes']} node(s), {ex['cpus']} CPUs)"
     resumed = f", {ex['resumed_episodes']} resumed" if ex["resumed_episodes"] else ""
+    cycle_time = (
+        f"mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s"
+        if s["successes"]
+        else "none (no episode succeeded)"
+    )
     out.write(
-        f"  cycle time    mean {ct['mean']:.2f} s, p95 {ct['p95']:.2f} s, max {ct['max']:.2f} s\n"
+        f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
         f"  report: {outcome.report_path}\n  episodes: {outcome.episodes_path}\n"
     )

@@ -410,3 +410,27 @@ def test_the_report_may_not_overwrite_the_ik_file(
     assert main(["run", "--cycles", "1", "--ik", f"{user}:solve", "--report", str(user)]) == 2
     assert "--report and --ik name the same file" in _one_line(capsys)
     assert user.read_text() == text
+
+
+def test_messages_that_said_the_wrong_thing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.commands import _duration
+    from kr210_sim.score.report import summary_table
+
+    # A run slower than real time read "0x real time".
+    summary = {**json.loads(_run_report(tmp_path))["summary"], "wall_real_time_factor": 0.04}
+    assert "(0.04x real time)" in summary_table(summary)
+    # A slow IK read "30003057.0 us mean" for 30 s.
+    assert [_duration(t) for t in (2.5e-5, 0.0123, 30.003057)] == ["25.0 us", "12.3 ms", "30.00 s"]
+    # --host that is no address read "port busy"; --replay with --joints was silently ignored.
+    assert main(["view", "--host", "256.1.1.1", "--report", str(tmp_path / "v.json")]) == 2
+    assert "--host 256.1.1.1: not an IP address" in _one_line(capsys)
+    assert main(["view", "--joints", "--replay", str(tmp_path / "r.npz")]) == 2
+    assert "--replay plays a recording: drop one" in _one_line(capsys)
+
+
+def _run_report(tmp_path: Path) -> str:
+    report = tmp_path / "run.json"
+    assert main(["run", "--cycles", "1", "--slot", "5", "--report", str(report)]) == 0
+    return report.read_text()

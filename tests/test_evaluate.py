@@ -360,3 +360,20 @@ def test_evaluate_outputs_may_not_overwrite_its_inputs(
         assert clash in err and err.count("\n") == 1, err
     assert cell.read_text() == PUBLISHED_CELL.read_text()
     assert ik.read_text().startswith("from kr210_sim")
+
+
+def test_no_success_prints_no_cycle_time(
+    tmp_path: Path, no_offset_ik: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [
+        "evaluate",
+        "--episodes",
+        "1",
+        "--ik",
+        no_offset_ik,
+        "--report",
+        str(tmp_path / "e.json"),
+    ]
+    assert main(argv) == 1
+    out = capsys.readouterr().out
+    assert "cycle time    none (no episode succeeded)" in out and "0.00 s" not in out

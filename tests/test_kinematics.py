@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -326,3 +327,20 @@ def test_package_code_takes_the_kinematics_of_its_robot() -> None:
                     f"{path.name}: {a.name}" for a in node.names if a.name.endswith(".kinematics")
                 ]
     assert len(list(package.rglob("*.py"))) > 50 and not found, found
+
+
+def test_a_pose_just_out_of_reach_says_by_how_much_in_mm() -> None:
+    """A wrist centre 0.4 mm beyond the reach read "0.000 m beyond the arm's reach"."""
+
+    def pose(x: float) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, 3] = [x, 0.0, 1.0]
+        return T
+
+    lo, hi = 2.0, 5.0  # reachable, unreachable: bisect the edge of the reach
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if kin.inverse(pose(mid)).shape[0] else (lo, mid)
+    with pytest.raises(UnreachablePoseError) as exc:
+        kin.nearest(pose(hi + 0.0004), np.zeros(6))
+    assert re.search(r"is 0\.(39|40)\d* mm beyond the arm.s", str(exc.value)), str(exc.value)

@@ -87,6 +87,9 @@ def test_observation_layout(joint_env: PickPlaceEnv) -> None:
         ({"max_steps": 0}, "max_steps must be a whole number >= 1, got 0"),
         ({"render_mode": "human"}, "render_mode must be None or 'rgb_array', got 'human'"),
         ({"render_mode": "rgb_array", "camera": "top"}, "no camera 'top'; cameras: overview"),
+        # a size no renderer takes is the size's fault, not OpenGL's, and said up front
+        ({"render_mode": "rgb_array", "width": 480.5}, "frame size must be whole numbers"),
+        ({"render_mode": "rgb_array", "width": 0}, "frame size must be positive, got 0x352"),
     ],
 )
 def test_bad_arguments(kwargs: dict[str, Any], message: str) -> None:
@@ -110,6 +113,7 @@ def test_bad_reset_options(joint_env: PickPlaceEnv) -> None:
         ([0, 0, 0, 0, 0, 1.5, 0], "action entry 5 is 1.5, outside the action space [-1, 1]"),
         ([0, 0, 0], "action must have shape (7,) for control='joint', got (3,)"),
         ("left", "action must be 7 numbers in [-1, 1], got str"),
+        ([0.5 + 0.1j, 0, 0, 0, 0, 0, 0], "action must be 7 real numbers in [-1, 1], got complex"),
     ],
 )
 def test_bad_actions_never_reach_mujoco(joint_env: PickPlaceEnv, action: Any, message: str) -> None:
@@ -210,6 +214,10 @@ def test_truncation_at_the_step_limit() -> None:
     env.reset(seed=0)
     flags = [env.step(np.zeros(7))[2:4] for _ in range(3)]
     assert flags == [(False, False), (False, False), (False, True)]
+    with pytest.raises(ConfigError, match=r"the episode has ended .*: call reset"):
+        env.step(np.zeros(7))  # it stepped on past the limit
+    env.reset(seed=1)
+    env.step(np.zeros(7))
 
 
 def test_joint_actions_move_the_servo_targets_within_limits() -> None:

@@ -160,12 +160,14 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.run_config = RunConfig(cycles=1, slot=slot, randomize=bool(randomize))
         self.render_mode = render_mode
         self.model = model_at(scene)
-        if render_mode is not None:
-            from kr210_sim.media.render import check_camera
+        if render_mode is not None:  # checked here, not blamed on OpenGL at the first frame
+            from kr210_sim.media.render import check_camera, check_frame_size
 
             check_camera(self.model, camera)
+            check_frame_size(width, height)
         self.camera, self.width, self.height = camera, width, height
         self._renderer: mujoco.Renderer | None = None
+        self._ended = False
         self.robot = load_robot()
         self.kinematics = Kinematics(self.robot)
         self.motion = MotionConfig()
@@ -262,7 +264,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         T = self.kinematics.forward(self.q_cmd)
         self.p_cmd, self.yaw_cmd = T[:3, 3].copy(), _yaw(T[:3, :3])
         self.grip_cmd = -1.0
-        self.steps, self._contacts = 0, 0
+        self.steps, self._contacts, self._ended = 0, 0, False
         self._rest.reset()
         self.episode += 1
         return self._observation(), self._info()
@@ -277,6 +279,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         """
         if self.target is None:
             raise ConfigError("call reset() before step()")
+        if self._ended:
+            raise ConfigError("the episode has ended (terminated or truncated): call reset()")
         a = self._check_action(action)
         q_next = self._joint_command(a) if self.control == "joint" else self._cartesian_command(a)
         lo, hi = self._grip_range
@@ -301,6 +305,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         reward = float(self.compute_reward(obs["achieved_goal"], obs["desired_goal"], info))
         terminated = bool(info["is_success"])
         truncated = self.steps >= self.max_steps and not terminated
+        self._ended = terminated or truncated
         return obs, reward, terminated, truncated, info
 
     def compute_reward(
@@ -372,6 +377,11 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         )
 
     def _check_action(self, action: npt.ArrayLike) -> FloatArray:
+        if np.iscomplexobj(action) or isinstance(action, complex):
+            raise ActionError(
+                f"action must be {CONTROLS[self.control]} real numbers in [-1, 1], got complex "
+                "numbers"
+            )
         try:
             a = np.asarray(action, dtype=np.float64)
         except (TypeError, ValueError):

@@ -51,8 +51,14 @@ def check_frame_size(width: int, height: int) -> None:
     """Refuse a frame size no renderer takes.
 
     Raises:
-        ConfigError: When the size is not positive or larger than :data:`MAX_FRAME` per side.
+        ConfigError: When the size is not whole numbers, not positive or larger than
+            :data:`MAX_FRAME` per side.
     """
+    for v in (width, height):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise ConfigError(
+                f"frame size must be whole numbers of pixels, got {width!r}x{height!r}"
+            )
     if width < 1 or height < 1:
         raise ConfigError(f"frame size must be positive, got {width}x{height}")
     if width > MAX_FRAME or height > MAX_FRAME:

@@ -382,15 +382,24 @@ def _why_unreachable(T: FloatArray, g: Geometry) -> str:
     w = T[:3, 3] - g.dg * R[:, 0]
     rho = math.hypot(w[0], w[1])
     zz = w[2] - g.d0 - g.h1
-    best_gap = math.inf
+    best_gap, too_close = math.inf, False
     for shoulder in (1.0, -1.0):
         d = math.hypot(shoulder * rho - g.a1, zz)
-        gap = max(d - g.reach, abs(g.a2 - g.forearm) - d)
-        best_gap = min(best_gap, gap)
+        outer, inner = d - g.reach, abs(g.a2 - g.forearm) - d
+        if max(outer, inner) < best_gap:
+            best_gap, too_close = max(outer, inner), inner > outer
     if best_gap > 0:
+        # mm below 1 cm: "0.000 m beyond" said nothing for a pose just out of reach
+        gap = f"{1000 * best_gap:.3g} mm" if best_gap < 0.01 else f"{best_gap:.3f} m"
+        where = np.round(w, 3).tolist()
+        if too_close:
+            return (
+                f"out of reach: the wrist centre {where} is {gap} closer to joint_2 than the "
+                f"folded arm reaches ({abs(g.a2 - g.forearm):.3f} m)"
+            )
         return (
-            f"out of reach: the wrist centre {np.round(w, 3).tolist()} is {best_gap:.3f} m beyond "
-            f"the arm's {g.reach:.3f} m reach from joint_2"
+            f"out of reach: the wrist centre {where} is {gap} beyond the arm's "
+            f"{g.reach:.3f} m reach from joint_2"
         )
     # For each joint, the smallest excess over its limits among the branches that need it.
     excess: dict[int, float] = {}

@@ -195,6 +195,7 @@ def summary_table(summary: dict[str, Any]) -> str:
         )
     if "wall_time_s" in summary:
         wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
-        rows.append(("wall time", f"{wall:.2f} s ({rtf:.0f}x real time)"))
+        factor = f"{rtf:.0f}" if rtf >= 10 else f"{rtf:.2g}"  # never "0x" for a slow run
+        rows.append(("wall time", f"{wall:.2f} s ({factor}x real time)"))
     w = max(len(k) for k, _ in rows)
     return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)

@@ -71,6 +71,28 @@ def has_display() -> bool:
     return True
 
 
+def _check_host(host: str) -> None:
+    """Refuse a ``--host`` that is no address (``256.1.1.1`` was reported as a busy port).
+
+    Raises:
+        ConfigError: When ``host`` is neither an IP address nor a name that resolves.
+    """
+    import ipaddress
+    import re
+    import socket
+
+    if re.fullmatch(r"[\d.]+|[\da-fA-F:]*:[\da-fA-F:.]*", host):
+        try:
+            ipaddress.ip_address(host)
+        except ValueError:
+            raise ConfigError(f"--host {host}: not an IP address (e.g. 127.0.0.1)") from None
+        return
+    try:
+        socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError) as exc:
+        raise ConfigError(f"--host {host}: no such host here ({exc})") from None
+
+
 @dataclasses.dataclass(frozen=True, slots=True)
 class ViewerSettings:
     """How to show the cell.
@@ -108,6 +130,7 @@ class ViewerSettings:
             raise ConfigError(f"quality must be 'full' or 'fast', got {self.quality!r}")
         if not self.host:
             raise ConfigError("host must not be empty (127.0.0.1 for this machine only)")
+        _check_host(self.host)
 
     @property
     def exposed(self) -> bool:
