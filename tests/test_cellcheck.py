@@ -90,3 +90,23 @@ def test_example_cells_run_with_no_contact(name: str) -> None:
         assert any(m[1] == "ompl" for r in runner.results for m in r.moves)
     else:
         assert detours == 0
+
+
+def test_a_drop_spot_whose_cylinder_cannot_reach_the_bin_floor_is_not_served() -> None:
+    """A scene with a crate in the bin passed `check` (every cycle then ended missed_bin)."""
+    import mujoco
+
+    from kr210_sim.cell.layout import CellLayout
+    from kr210_sim.plan.cellcheck import landing_blocker
+    from kr210_sim.util.paths import SCENE_PATH
+
+    published = model_for()
+    layout = CellLayout.from_model(published)
+    assert all(landing_blocker(published, layout, n) == "" for n in range(1, 10))
+    spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
+    crate = spec.worldbody.add_body(name="crate", pos=[0.0, 2.5, 0.4])
+    crate.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.3, 0.3])
+    blocked = spec.compile()
+    for n in range(1, 10):
+        why = landing_blocker(blocked, CellLayout.from_model(blocked), n)
+        assert why.startswith("a cylinder dropped here lands on crate at z = 0.70 m"), why

@@ -42,3 +42,17 @@ def test_reports_record_the_cell(tmp_path) -> None:  # type: ignore[no-untyped-d
     assert main(["run", "--cycles", "1", "--seed", "3", "--report", str(report)]) == 0
     cell = json.loads(report.read_text())["cell"]
     assert cell["name"] == "published" and len(cell["sha256"]) == 64 and cell["slots"] == 9
+
+
+def test_a_scenes_cell_name_is_shown_escaped_and_bounded() -> None:
+    """A hand-made scene's name with a newline, or 50 MB of it, broke the tables."""
+    import mujoco
+
+    from kr210_sim.cell.layout import CellLayout
+    from kr210_sim.util.paths import SCENE_PATH
+
+    spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
+    text = next(t for t in spec.texts if t.name == "cell_name")
+    text.data = "two\nlines" + "x" * 100
+    name = CellLayout.from_model(spec.compile()).name
+    assert name.startswith("two\\nlines") and len(name) == 64 and name.endswith("...")

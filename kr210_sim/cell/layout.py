@@ -189,7 +189,7 @@ class CellLayout:
         figures = np.concatenate(parts)
         layout_hash = hashlib.sha256(np.round(figures, 6).tobytes()).hexdigest()
         return cls(
-            name=_text(model, "cell_name", "unnamed"),
+            name=_shown(_text(model, "cell_name", "unnamed")),
             sha256=_text(model, "cell_sha256", "none"),
             layout_sha256=layout_hash,
             slots=slots,
@@ -212,12 +212,24 @@ def ready_q_of(model: mujoco.MjModel) -> FloatArray | None:
     return np.radians(np.array(model.numeric_data[adr : adr + 6], dtype=np.float64))
 
 
+#: Longest cell name shown in tables and reports [characters] (cell files allow no longer).
+MAX_NAME = 64
+
+
+def _shown(name: str) -> str:
+    """A scene's cell name as tables show it: control characters escaped, at most
+    :data:`MAX_NAME` characters (a hand-made scene's newline or 50 MB name broke the table)."""
+    if not name.isprintable():
+        name = name.encode("unicode_escape").decode("ascii")
+    return name if len(name) <= MAX_NAME else name[: MAX_NAME - 3] + "..."
+
+
 def _text(model: mujoco.MjModel, name: str, default: str) -> str:
     i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
     if i < 0:
         return default
     adr, n = model.text_adr[i], model.text_size[i]
-    return bytes(model.text_data[adr : adr + n - 1]).decode()
+    return bytes(model.text_data[adr : adr + n - 1]).decode(errors="replace")
 
 
 def _randomization(model: mujoco.MjModel) -> RandomizationSpec:

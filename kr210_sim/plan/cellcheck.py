@@ -14,6 +14,7 @@ moved clear of the cell.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -142,6 +143,47 @@ def _row(
     return CheckRow(what, True, True, detour, ms, "", drop_spot, used, joint, grip)
 
 
+#: Geom groups of colliders (cell parts 0, robot and dressing colliders 3): what a dropped
+#: cylinder can land on.
+_COLLIDER_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)
+
+
+def landing_blocker(model: mujoco.MjModel, layout: CellLayout, spot: int) -> str:
+    """What stops a cylinder dropped at drop spot ``spot`` (1-based) above the bin's floor, or
+    "" when it falls to the floor (a box in the bin: every cycle would end ``missed_bin``).
+
+    Rays straight down from above the rim, at the spot and four points on the cylinder's
+    rim, against the colliders of the model at its first keyframe.
+    """
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    b, r = layout.bin, layout.target.radius
+    x, y = layout.drop_spots[spot - 1][:2]
+    top = b.rim + 1.0
+    hit = np.zeros(1, dtype=np.int32)
+    for dx, dy in ((0.0, 0.0), (r, 0.0), (-r, 0.0), (0.0, r), (0.0, -r)):
+        start = np.array([x + dx, y + dy, top])
+        dist = mujoco.mj_ray(
+            model, data, start, np.array([0.0, 0.0, -1.0]), _COLLIDER_GROUPS, 1, -1, hit
+        )
+        if dist >= 0 and top - dist > b.floor_top + 0.005:
+            body = model.body(int(model.geom_bodyid[hit[0]])).name or "a geom"
+            return (
+                f"a cylinder dropped here lands on {body} at z = {top - dist:.2f} m, above the "
+                f"bin's floor ({b.floor_top:.2f} m)"
+            )
+    return ""
+
+
+def _landing(model: mujoco.MjModel, layout: CellLayout, spot: int, row: CheckRow) -> CheckRow:
+    """``row`` of drop spot ``spot``, not served when a dropped cylinder cannot reach the
+    bin's floor."""
+    blocker = landing_blocker(model, layout, spot) if row.served else ""
+    return dataclasses.replace(row, path=False, detail=blocker) if blocker else row
+
+
 def check_cell(
     model: mujoco.MjModel,
     robot: RobotDescription | None = None,
@@ -169,7 +211,7 @@ def check_cell(
         for n in range(1, layout.n_slots + 1)
     )
     drops = tuple(
-        _row(f"drop {n}", n, planner, partial(drop_plan, n))
+        _landing(model, layout, n, _row(f"drop {n}", n, planner, partial(drop_plan, n)))
         for n in range(1, len(layout.drop_spots) + 1)
     )
     return CellCheck(layout.name, slots, drops, planner.ready_note)
