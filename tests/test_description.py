@@ -80,6 +80,7 @@ def test_bad_urdf_content_is_one_scene_error(
     bad.write_text(text.replace(old, new, 1))
     if not message:  # a harmless change: still a KR210
         np.testing.assert_array_equal(load_robot(bad).joints["joint_3"].origin, origin_3)
+        assert load_robot(bad).geometry == load_robot().geometry  # read twice, equal by value
         return
     with pytest.raises(SceneError) as err:
         load_robot(bad)

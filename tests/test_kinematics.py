@@ -252,7 +252,7 @@ def test_committed_description_keeps_todays_figures() -> None:
 def test_a_changed_link_length_changes_the_kinematics_by_exactly_that() -> None:
     longer = kin.Kinematics(_longer_link_2(0.1))
     g = longer.geometry
-    assert g.a2 == pytest.approx(G.a2 + 0.1, abs=1e-15)
+    assert g.a2 == pytest.approx(G.a2 + 0.1, abs=1e-15) and g != G
     assert (g.d0, g.h1, g.a1, g.a3x, g.a3z, g.dg) == (G.d0, G.h1, G.a1, G.a3x, G.a3z, G.dg)
     # link_2 turns about joint_2 by q2 from upright: the gripper moves by 0.1 m along it
     for q2 in (0.0, 0.5, -0.4):

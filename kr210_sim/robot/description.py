@@ -8,7 +8,7 @@ and the scene builder all read their constants from :func:`load_robot`, never fr
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import lru_cache
 from pathlib import Path
 from xml.etree import ElementTree
@@ -101,6 +101,18 @@ class Geometry:
         object.__setattr__(self, "lower_list", self.lower.tolist())
         object.__setattr__(self, "upper_list", self.upper.tolist())
         object.__setattr__(self, "inv_v2_list", (1.0 / (self.v_max * self.v_max)).tolist())
+
+    def __eq__(self, other: object) -> bool:
+        """Equal lengths and equal limits (the arrays compared element by element)."""
+        if not isinstance(other, Geometry):
+            return NotImplemented
+        return all(
+            np.array_equal(getattr(self, f.name), getattr(other, f.name))
+            for f in fields(self)
+            if f.compare
+        )
+
+    __hash__ = None  # type: ignore[assignment]
 
     @property
     def forearm(self) -> float:
