@@ -3,7 +3,7 @@
 The state space is the six arm joints within their limits; a state is valid when
 :class:`~kr210_sim.plan.collide.CollisionChecker` finds no collision there (the cell with its
 clearance, the arm itself, the held part as held and upright). RRTConnect finds a path, which is
-then shortened (rope shortcuts, vertex reduction) within a time budget.
+then shortened (partial shortcuts, vertex reduction) within a time budget.
 
 **Checking resolution.** Joint j moves the gripper's farthest point by at most ``r_j * |dq_j|``,
 ``r_j`` the sum of the link lengths from joint j's axis to the fingertips (the lever arm, from
@@ -50,7 +50,7 @@ RRT_RANGE = 2.0
 SOLVE_TIME = 1.0
 #: Time budget of the path simplification [s].
 SIMPLIFY_TIME = 0.15
-#: Rounds of simplification (each: rope shortcut, vertex reduction, close-vertex collapse).
+#: Most rounds of vertex reduction and close-vertex collapse.
 SIMPLIFY_ROUNDS = 3
 
 ou.setLogLevel(ou.LogLevel.LOG_WARN)
@@ -265,6 +265,9 @@ class SamplingPlanner:
         path = ss.getSolutionPath()
         simplifier = og.PathSimplifier(si)
         t_end = time.perf_counter() + SIMPLIFY_TIME
+        # one round of partial shortcuts (single joints' detours cut), then vertex reduction
+        # until it stops changing: column cell, 9 slots, 5 % shorter moves for 13 % more checks
+        simplifier.partialShortcutPath(path, 0, 0, 0.33, 0.005)
         for _ in range(SIMPLIFY_ROUNDS):
             n0 = path.getStateCount()
             changed = simplifier.reduceVertices(path, 2 * n0, n0, 1.0)
