@@ -156,7 +156,7 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
 
 def replay(args: argparse.Namespace) -> int:
     """``replay REC``: render a recording to MP4."""
-    from kr210_sim.jobs import replay_job
+    from kr210_sim.media.replay import replay_job
 
     line = ProgressLine(sys.stderr)
 
@@ -232,7 +232,7 @@ def view(args: argparse.Namespace) -> int:
 
 def _view_replay(args: argparse.Namespace, settings: Any) -> int:
     """``view --replay REC``: play a recording in the viewer at ``--speed`` x real time."""
-    from kr210_sim.jobs import open_recording
+    from kr210_sim.media.replay import open_recording
     from kr210_sim.view.live import LiveSettings, replay_view
 
     if args.demo:

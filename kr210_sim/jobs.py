@@ -13,9 +13,9 @@ plots. The report is written even when the video fails or the run is interrupted
 SIGTERM): the failure is reported afterwards, and an interrupted video keeps the frames of the
 states simulated so far.
 
-The others: :func:`replay_job` (``replay``; :func:`open_recording` also serves ``view
---replay``), :func:`evaluate_job` (``evaluate``'s checks before any worker starts),
-:func:`check_job` (``check``) and :func:`snapshot_job` (``snapshot``).
+The others: :func:`evaluate_job` (``evaluate``'s checks before any worker starts),
+:func:`check_job` (``check``) and :func:`snapshot_job` (``snapshot``); ``replay``'s job is
+:func:`kr210_sim.media.replay.replay_job`.
 """
 
 from __future__ import annotations
@@ -26,18 +26,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from kr210_sim.cell.load import model_at, model_for
+from kr210_sim.cell.load import model_for
 from kr210_sim.errors import ConfigError, RenderError, UnservableCellError, one_line
 from kr210_sim.media.plots import PLOT_NAMES
 from kr210_sim.media.recording import (
     DEFAULT_RATE,
     DEFAULT_TAIL,
-    Recording,
     StateRecorder,
-    check_model,
     check_recording_path,
     model_identity,
-    read_recording,
     run_meta,
     write_recording,
 )
@@ -327,99 +324,6 @@ def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt 
     except RenderError as exc:
         pool.abort(keep=False)
         return 0, str(exc), None
-
-
-def open_recording(
-    path: Path, scene: Path | None = None
-) -> tuple[Recording, mujoco.MjModel, Path | None]:
-    """Read the recording at ``path`` and load the model it was made with (``scene``, else the
-    scene it names, else the committed one), checked against it (``replay``, ``view --replay``).
-
-    Returns:
-        The recording, the model, and the scene path used (None: the committed scene).
-
-    Raises:
-        RecordingError: The file is not a readable recording or was made with another model.
-        SceneError: The scene cannot be loaded.
-    """
-    recording = read_recording(path)
-    if scene is None and recording.meta.get("scene"):
-        scene = Path(recording.meta["scene"])
-    model = model_at(scene)
-    check_model(path, recording, model)
-    return recording, model, scene
-
-
-@dataclass(frozen=True, slots=True)
-class ReplayResult:
-    """What :func:`replay_job` made.
-
-    Attributes:
-        video: The settings the MP4 was rendered with (its path included).
-        frames: Frames written (0: no MP4).
-        workers: Processes that rendered it.
-        interrupted: The interrupt that stopped the render early (the frames so far are kept),
-            or None.
-    """
-
-    video: VideoSettings
-    frames: int
-    workers: int
-    interrupted: KeyboardInterrupt | None
-
-
-def replay_job(
-    recording: Path,
-    video_path: Path | None = None,
-    options: dict[str, Any] | None = None,
-    scene: Path | None = None,
-    workers: int | None = None,
-    progress: Callable[[int, float, int | None], None] | None = None,
-) -> ReplayResult:
-    """Render a recording (``run --record``) to MP4: the ``replay`` command.
-
-    Args:
-        recording: The recording (``.npz``).
-        video_path: The MP4 (default: the recording's path with ``.mp4``).
-        options: Video settings given (``cameras``, ``width``, ``height``, ``fps``,
-            ``quality``); the rest are the run's own when it had a video, else the defaults,
-            and fps defaults to the recording's rate.
-        scene: The scene or cell the recording was made with (default: the one it names).
-        workers: Render processes (default: one per core; 1 renders in this process).
-        progress: Called with (frames written, simulated time [s], total frames or None).
-
-    Raises:
-        RecordingError: The recording is unreadable or was made with another model.
-        ConfigError: The MP4 path cannot be written or names an input.
-        RenderError: Rendering or encoding failed.
-    """
-    from kr210_sim.media.render_pool import frame_indices, render_recording
-
-    rec, model, scene = open_recording(recording, scene)
-    made: dict[str, Any] = dict(rec.meta.get("video") or {})
-    if "cameras" in made:
-        made["cameras"] = tuple(made["cameras"])
-    given = options or {}
-    fps = given.get("fps", made.get("fps", round(rec.rate)))
-    path = video_path if video_path is not None else recording.with_suffix(".mp4")
-    video = VideoSettings(path=path, **{**made, **given, "fps": fps})
-    check_writable(video.path)
-    if is_stream(video.path):
-        raise ConfigError(f"--video {video.path}: an MP4 needs a regular, seekable file")
-    check_distinct(
-        {"--video": video.path},
-        {"the recording": recording, "--scene": scene if scene is not None else SCENE_PATH},
-    )
-    # At most one process per core and per frame to draw.
-    workers = capped_workers(workers or default_workers(), len(frame_indices(rec, fps)))
-    total = rec.frames if fps == rec.rate else None
-
-    def report(frames: int, sim_time: float) -> None:
-        if progress is not None:
-            progress(frames, sim_time, total)
-
-    frames, interrupted = render_recording(rec, model, video, workers, report)
-    return ReplayResult(video, frames, workers, interrupted)
 
 
 def evaluate_job(
