@@ -251,3 +251,12 @@ def test_compiled_cells_are_cached_and_copied() -> None:
     a.geom_friction[0, 0] = 9.0
     assert b.geom_friction[0, 0] != 9.0
     assert mujoco.mj_name2id(a, mujoco.mjtObj.mjOBJ_SITE, "slot_9") >= 0
+
+
+def test_a_fifo_as_scene_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import os
+
+    fifo = tmp_path / "scene.xml"
+    os.mkfifo(fifo)
+    assert main(["check", "--scene", str(fifo)]) == 2
+    assert "is not a regular file (a FIFO or a device)" in capsys.readouterr().err

@@ -33,6 +33,10 @@ def load_model(path: Path | str | None = None) -> mujoco.MjModel:
     path = Path(path) if path is not None else SCENE_PATH
     if path.is_dir():
         raise SceneError(f"scene {path} is a folder: give the MJCF file (e.g. {SCENE_PATH.name})")
+    if path.exists() and not path.is_file():  # a FIFO would block MuJoCo's read for ever
+        raise SceneError(
+            f"scene {path} is not a regular file (a FIFO or a device): give an MJCF file"
+        )
     if not path.is_file():
         raise SceneError(f"scene not found: {path} (run `python -m kr210_sim build-scene`)")
     try:
