@@ -80,7 +80,7 @@ def test_run_writes_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     s = data["summary"]
     assert (s["cycles"], s["successes"], s["success_rate"]) == (1, 1, 1.0)
     assert data["config"]["seed"] == 3
-    assert set(data["versions"]) >= {"kr210_sim", "mujoco", "numpy", "ruckig", "python"}
+    assert set(data["versions"]) >= {"kr210_sim", "mujoco", "numpy", "ruckig", "python", "ompl"}
     assert not list(report.parent.glob("*.tmp"))
 
 
