@@ -241,7 +241,7 @@ class Planner:
             return replace(move, planning_time=move.planning_time + time.perf_counter() - t0)
         if move.kind != "ptp":
             raise NoPathError(f"{move.phase} straight-line move: {hit.describe()}")
-        routed = self.router.route(move.trajectory.q_start, move.q_end, move.phase)
+        routed = self.router.route(move.trajectory.q_start, move.q_end, move.phase, hit)
         self.detours += 1
         return Move(
             move.phase,

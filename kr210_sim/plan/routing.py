@@ -81,9 +81,18 @@ class Router:
     def _clear(self, traj: Trajectory) -> bool:
         return self.hit(traj) is None
 
-    def route(self, q_start: FloatArray, q_goal: FloatArray, phase: str) -> Routed:
+    def route(
+        self, q_start: FloatArray, q_goal: FloatArray, phase: str, blocked: Hit | None = None
+    ) -> Routed:
         """A clear move from rest at ``q_start`` to rest at ``q_goal`` [rad], checked under the
         checker's current :meth:`~CollisionChecker.hold`.
+
+        Args:
+            q_start: Start [rad].
+            q_goal: Goal [rad].
+            phase: The move's phase, for messages.
+            blocked: What blocks the direct move when the caller checked it already (it is
+                then not checked again).
 
         Raises:
             NoPathError: When the direct move collides and OMPL finds no clear path; the
@@ -91,8 +100,10 @@ class Router:
             PlanningError: When a trajectory breaks a limit.
         """
         t0, checks0 = time.perf_counter(), self.checker.checks
-        direct = plan_ptp(q_start, q_goal, self.limits)
-        hit = self.hit(direct)
+        hit = blocked
+        if hit is None:
+            direct = plan_ptp(q_start, q_goal, self.limits)
+            hit = self.hit(direct)
         if hit is None:
             bound = rest_to_rest_bound(q_start, q_goal, self.limits)
             return Routed(
