@@ -41,7 +41,7 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Checking step of the search, in the weighted distance [m] (the result is checked again at
 #: 1 cm before the arm may move).
-COARSE_STEP = 0.08
+COARSE_STEP = 0.16
 #: Largest |q4| searched while holding a part [rad].
 HELD_Q4 = math.pi / 4
 #: RRTConnect's longest extension, in the weighted distance [m].
