@@ -14,8 +14,9 @@ per joint apart.
 
 **Determinism.** Each plan seeds OMPL's random generator (``ompl.util.RNG``) from the run's
 seed and the plan's own start and goal, so a plan does not depend on what was planned before it
-(any number of evaluation workers gives the same plans). Simplification runs a fixed number of
-rounds; the time budget only cuts it short on a machine far slower than expected.
+(any number of evaluation workers gives the same plans). The search's budget is a number of
+validity checks (:data:`SOLVE_CHECKS`), never seconds, and simplification runs a fixed number of
+rounds, so a loaded or slow machine finds the same paths as a quiet one, only later.
 """
 
 from __future__ import annotations
@@ -46,10 +47,10 @@ COARSE_STEP = 0.16
 HELD_Q4 = math.pi / 4
 #: RRTConnect's longest extension, in the weighted distance [m].
 RRT_RANGE = 2.0
-#: Longest RRTConnect search [s].
-SOLVE_TIME = 1.0
-#: Time budget of the path simplification [s].
-SIMPLIFY_TIME = 0.15
+#: Most validity checks one RRTConnect search may make (~1 s of checks at ~30 us each here). A
+#: budget in checks, not seconds, so that whether a plan is found does not depend on how busy
+#: the machine is: the same seed gives the same plan or the same ``no_path`` anywhere.
+SOLVE_CHECKS = 30_000
 #: Most rounds of vertex reduction and close-vertex collapse.
 SIMPLIFY_ROUNDS = 3
 
@@ -189,8 +190,8 @@ class SamplingPlanner:
             fine: Search at the fine step.
 
         Raises:
-            NoPathError: When an end collides, or RRTConnect finds no path in
-                :data:`SOLVE_TIME`.
+            NoPathError: When an end collides, or RRTConnect finds no path within
+                :data:`SOLVE_CHECKS` validity checks.
         """
         return self._plan(q_start, q_goal, held, SAMPLE_TRAVEL if fine else COARSE_STEP)
 
@@ -256,15 +257,15 @@ class SamplingPlanner:
         rrt = og.RRTConnect(si)
         rrt.setRange(RRT_RANGE)
         ss.setPlanner(rrt)
-        ss.solve(SOLVE_TIME)
+        budget = checks0 + SOLVE_CHECKS
+        ss.solve(ob.PlannerTerminationCondition(lambda: self.checker.checks >= budget))
         if not ss.haveExactSolutionPath():
             raise NoPathError(
-                f"OMPL's RRTConnect found no collision-free path in {SOLVE_TIME:.1f} s "
-                f"({self.checker.checks - checks0} states checked)"
+                f"OMPL's RRTConnect found no collision-free path within {SOLVE_CHECKS} "
+                f"validity checks ({self.checker.checks - checks0} states checked)"
             )
         path = ss.getSolutionPath()
         simplifier = og.PathSimplifier(si)
-        t_end = time.perf_counter() + SIMPLIFY_TIME
         # one round of partial shortcuts (single joints' detours cut), then vertex reduction
         # until it stops changing: column cell, 9 slots, 5 % shorter moves for 13 % more checks
         simplifier.partialShortcutPath(path, 0, 0, 0.33, 0.005)
@@ -272,7 +273,7 @@ class SamplingPlanner:
             n0 = path.getStateCount()
             changed = simplifier.reduceVertices(path, 2 * n0, n0, 1.0)
             changed |= simplifier.collapseCloseVertices(path)
-            if not changed or time.perf_counter() > t_end:
+            if not changed:
                 break
         n = path.getStateCount()
         way = np.array([[path.getState(i)[j][0] for j in range(6)] for i in range(n)]) @ M.T
