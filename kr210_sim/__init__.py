@@ -59,15 +59,17 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module 'kr210_sim' has no attribute {name!r}")
 
 
-__all__ = [
-    "ConfigError",
-    "Kr210SimError",
-    "PlanningError",
-    "RenderError",
-    "SceneError",
-    "UnreachablePoseError",
-    "__version__",
-    "evaluate",
-    "ik_check",
-    "run",
-]
+#: The public API: what ``from kr210_sim import *`` gives and what the package serves at the top
+#: level (the errors, the version, and the API's names of :data:`_API`, loaded on first use).
+__all__ = sorted(
+    {
+        "ConfigError",
+        "Kr210SimError",
+        "PlanningError",
+        "RenderError",
+        "SceneError",
+        "UnreachablePoseError",
+        "__version__",
+        *_API,
+    }
+)

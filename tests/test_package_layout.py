@@ -219,3 +219,26 @@ def test_no_file_points_outside_the_repository() -> None:
             continue
         found += [f"{name}: {s}" for s in outside if s in text]
     assert len(files) > 100 and not found, found
+
+
+def test_every_exported_name_is_served() -> None:
+    """The top level and each subpackage export a handful of names (``__all__``), and every
+    one of them is there: the package's own API, each room's front door."""
+    import importlib
+
+    import kr210_sim
+
+    assert {"run", "evaluate", "ik_check", "RunReport", "Kr210SimError", "__version__"} <= set(
+        kr210_sim.__all__
+    )
+    for name in kr210_sim.__all__:
+        assert getattr(kr210_sim, name) is not None, name
+    rooms = sorted(p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file())
+    assert len(rooms) >= 9, rooms
+    for room in rooms:
+        module = importlib.import_module(f"kr210_sim.{room}")
+        exported = getattr(module, "__all__", None)
+        assert exported, f"kr210_sim.{room} exports nothing"
+        assert len(exported) <= 10, f"kr210_sim.{room} exports {len(exported)} names"
+        for name in exported:
+            assert hasattr(module, name), f"kr210_sim.{room}.{name}"

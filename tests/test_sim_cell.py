@@ -10,7 +10,7 @@ import pytest
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
-from kr210_sim.sim.cell import Cell, Recording, ramp
+from kr210_sim.sim.cell import Cell, TickLog, ramp
 from kr210_sim.util.paths import SCENE_PATH
 
 
@@ -67,7 +67,7 @@ def test_the_contact_monitor_catches_a_forearm_strike() -> None:
     )
     cell = Cell(spec.compile())
     cell.reset(q0)
-    rec = Recording()
+    rec = TickLog()
     cell.track(ramp(q0, [0.5, 0, 0, 0, 0, 0], 1.0), rec, "swing")
     contact = rec.arrays()["env_contact"]
     assert contact.any() and not contact[:150].any()  # clear for the first 0.3 s

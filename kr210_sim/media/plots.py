@@ -18,7 +18,7 @@ from kr210_sim.robot.description import ARM_JOINTS, RobotDescription
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.metrics import gripper_tracking_error_mm
 from kr210_sim.score.result import CycleResult
-from kr210_sim.sim.cell import Recording
+from kr210_sim.sim.cell import TickLog
 from kr210_sim.util.outputs import atomic_path, check_folder
 
 #: The files :func:`write_plots` writes.
@@ -41,7 +41,7 @@ OUTCOME_COLOURS = {
 def write_plots(
     out_dir: Path | str,
     results: Sequence[CycleResult],
-    recordings: Sequence[Recording],
+    recordings: Sequence[TickLog],
     robot: RobotDescription,
 ) -> list[Path]:
     """Write the four plots into ``out_dir``; return their paths.

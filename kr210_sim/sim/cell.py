@@ -107,7 +107,7 @@ StepHook = Callable[["Cell"], None]
 
 
 @dataclass
-class Recording:
+class TickLog:
     """Per-tick samples of one cycle, appended segment by segment.
 
     Each segment holds arrays with one row per physics tick: ``t`` simulated time [s],
@@ -373,7 +373,7 @@ class Cell:
     def track(
         self,
         traj: JointTrajectory,
-        recording: Recording | None = None,
+        recording: TickLog | None = None,
         phase: str = "",
         until: Callable[[Cell], bool] | None = None,
         extra_time: float = 0.0,

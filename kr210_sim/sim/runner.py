@@ -37,7 +37,7 @@ from kr210_sim.score.scoring import (
     outcome_decided,
     plan_failure,
 )
-from kr210_sim.sim.cell import Cell, Recording, hold
+from kr210_sim.sim.cell import Cell, TickLog, hold
 from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
@@ -137,7 +137,7 @@ class Runner:
         config: Run settings.
         model: A compiled cell model (default: the committed scene).
         robot: The robot description (default: the committed URDF).
-        keep_recordings: Keep every cycle's per-tick :class:`Recording` in :attr:`recordings`
+        keep_recordings: Keep every cycle's per-tick :class:`TickLog` in :attr:`recordings`
             (for plots; about 0.9 MB a cycle). Without it memory stays flat however many cycles
             run.
         ik: A user's IK function to plan with (default: our closed form); a cycle whose plan
@@ -177,7 +177,7 @@ class Runner:
         self.q_cmd = self.planner.ready_q.copy()
         self.results: list[CycleResult] = []
         self.keep_recordings = keep_recordings
-        self.recordings: list[Recording] = []
+        self.recordings: list[TickLog] = []
         self.targets = TargetPool(self.cell, self.layout)
         self.status: dict[str, object] = {
             "cycle": 0,
@@ -251,7 +251,7 @@ class Runner:
         if step and self.on_phase is not None:
             self.on_phase(phase)
 
-    def _track(self, move: Move, rec: Recording, phases: dict[str, float]) -> None:
+    def _track(self, move: Move, rec: TickLog, phases: dict[str, float]) -> None:
         self._enter(move.phase)
         dt = self.cell.track(move.trajectory, rec, move.phase)
         phases[move.phase] = phases.get(move.phase, 0.0) + dt
@@ -260,7 +260,7 @@ class Runner:
     def _hold(
         self,
         seconds: float,
-        rec: Recording | None,
+        rec: TickLog | None,
         phase: str,
         phases: dict[str, float],
         until: Callable[[Cell], bool] | None = None,
@@ -277,7 +277,7 @@ class Runner:
         gap = self.robot.finger_gap(cell.finger_q)
         return right and left and abs(gap - 2.0 * radius) < GRIP_GAP_TOLERANCE
 
-    def _close(self, radius: float, step: Step, rec: Recording, phases: dict[str, float]) -> bool:
+    def _close(self, radius: float, step: Step, rec: TickLog, phases: dict[str, float]) -> bool:
         """Close the gripper until the grip is confirmed or the step's wait passes."""
         cell = self.cell
         cell.close_gripper()
@@ -295,7 +295,7 @@ class Runner:
         self,
         index: int,
         slot: int,
-        rec: Recording | None = None,
+        rec: TickLog | None = None,
         phases: dict[str, float] | None = None,
     ) -> tuple[TargetSample, int]:
         """Start cycle ``index``: draw its target for ``slot``, spawn it and let it settle for
@@ -315,7 +315,7 @@ class Runner:
         """
         wall0 = time.perf_counter()
         cfg, cell = self.config, self.cell
-        rec = Recording()
+        rec = TickLog()
         phases: dict[str, float] = {}
         sample, k = self.start_cycle(index, slot, rec, phases)
         t_start = cell.time
@@ -467,7 +467,7 @@ class Runner:
         sample: TargetSample,
         outcome: Outcome,
         detail: str,
-        rec: Recording,
+        rec: TickLog,
         cycle_time: float,
         attempts: int,
         grip_ref: FloatArray | None,
