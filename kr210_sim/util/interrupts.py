@@ -25,6 +25,9 @@ from types import FrameType
 HANDLED = (signal.SIGTERM, signal.SIGHUP)
 #: Signals received under :func:`terminate_as_interrupt`, oldest first.
 _received: list[int] = []
+#: How many :func:`terminate_as_interrupt` blocks are open (they nest); the remembered signals
+#: belong to the outermost one and are forgotten when it ends.
+_depth = 0
 
 
 class Interrupted(KeyboardInterrupt):
@@ -78,10 +81,13 @@ def terminate_as_interrupt() -> Iterator[None]:
     previous handlers are restored afterwards; a signal ignored by the parent (``nohup``) stays
     ignored, and a SIGINT handler someone else installed is kept.
     """
+    global _depth
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    _received.clear()
+    if _depth == 0:
+        _received.clear()
+    _depth += 1
     previous = {}
     for sig in (*HANDLED, signal.SIGINT):
         old = signal.getsignal(sig)
@@ -96,6 +102,9 @@ def terminate_as_interrupt() -> Iterator[None]:
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+        _depth -= 1
+        if _depth == 0:  # a later run in this process starts with nothing remembered
+            _received.clear()
 
 
 @contextlib.contextmanager
