@@ -61,15 +61,20 @@ def __getattr__(name: str) -> Any:
 
 #: The public API: what ``from kr210_sim import *`` gives and what the package serves at the top
 #: level (the errors, the version, and the API's names of :data:`_API`, loaded on first use).
-__all__ = sorted(
-    {
-        "ConfigError",
-        "Kr210SimError",
-        "PlanningError",
-        "RenderError",
-        "SceneError",
-        "UnreachablePoseError",
-        "__version__",
-        *_API,
-    }
-)
+__all__ = [
+    "ConfigError",
+    "EvalReport",
+    "IkCheckReport",
+    "Kr210SimError",
+    "PlanningError",
+    "RenderError",
+    "Report",
+    "RunInterrupted",
+    "RunReport",
+    "SceneError",
+    "UnreachablePoseError",
+    "__version__",
+    "evaluate",
+    "ik_check",
+    "run",
+]

@@ -242,3 +242,10 @@ def test_every_exported_name_is_served() -> None:
         assert len(exported) <= 10, f"kr210_sim.{room} exports {len(exported)} names"
         for name in exported:
             assert hasattr(module, name), f"kr210_sim.{room}.{name}"
+
+
+def test_the_top_level_all_lists_every_api_name() -> None:
+    import kr210_sim
+
+    assert set(kr210_sim._API) <= set(kr210_sim.__all__)
+    assert len(set(kr210_sim.__all__)) == len(kr210_sim.__all__)

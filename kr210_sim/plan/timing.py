@@ -26,8 +26,7 @@ import numpy.typing as npt
 import ruckig
 
 from kr210_sim.errors import PlanningError
-from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp
-from kr210_sim.robot.kinematics import LIMIT_SLACK
+from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp, ruckig_profile
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -125,23 +124,7 @@ def waypoint_velocities(way: FloatArray, limits: JointLimits, scale: float) -> F
 def _segment(
     q0: FloatArray, v0: FloatArray, q1: FloatArray, v1: FloatArray, limits: JointLimits
 ) -> ruckig.Trajectory:
-    inp = ruckig.InputParameter(6)
-    inp.current_position, inp.current_velocity = q0.tolist(), v0.tolist()
-    inp.current_acceleration = [0.0] * 6
-    inp.target_position, inp.target_velocity = q1.tolist(), v1.tolist()
-    inp.target_acceleration = [0.0] * 6
-    inp.max_velocity = limits.v_max.tolist()
-    inp.max_acceleration = limits.a_max.tolist()
-    inp.max_jerk = limits.j_max.tolist()
-    inp.synchronization = ruckig.Synchronization.Time
-    profile = ruckig.Trajectory(6)
-    result = ruckig.Ruckig(6).calculate(inp, profile)
-    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise PlanningError(f"ruckig found no segment profile ({result})")
-    for j, ext in enumerate(profile.position_extrema):
-        if ext.min < limits.lower[j] - LIMIT_SLACK or ext.max > limits.upper[j] + LIMIT_SLACK:
-            raise PlanningError(f"segment of joint_{j + 1} overshoots its position limits")
-    return profile
+    return ruckig_profile(q0, v0, q1, v1, limits, ruckig.Synchronization.Time, "segment profile")
 
 
 def blend(way: FloatArray, limits: JointLimits, scale: float = 1.0) -> Trajectory:

@@ -164,6 +164,46 @@ class PtpTrajectory(Trajectory):
         return out[0], out[1], out[2]
 
 
+def ruckig_profile(
+    q0: FloatArray,
+    v0: FloatArray,
+    q1: FloatArray,
+    v1: FloatArray,
+    limits: JointLimits,
+    synchronization: ruckig.Synchronization,
+    what: str,
+) -> ruckig.Trajectory:
+    """ruckig's jerk-limited profile from state (``q0`` [rad], ``v0`` [rad/s]) to (``q1``, ``v1``),
+    at rest in acceleration at both ends, within ``limits``' velocity, acceleration and jerk.
+
+    Args:
+        synchronization: How the joints are synchronised (``Phase`` for straight PTP moves,
+            ``Time`` for segments through waypoints).
+        what: The profile's name in messages (e.g. ``"PTP profile"``).
+
+    Raises:
+        PlanningError: When ruckig finds no profile, or the profile leaves the position limits
+            anywhere (ruckig itself ignores them).
+    """
+    inp = ruckig.InputParameter(6)
+    inp.current_position, inp.current_velocity = q0.tolist(), v0.tolist()
+    inp.current_acceleration = [0.0] * 6
+    inp.target_position, inp.target_velocity = q1.tolist(), v1.tolist()
+    inp.target_acceleration = [0.0] * 6
+    inp.max_velocity = limits.v_max.tolist()
+    inp.max_acceleration = limits.a_max.tolist()
+    inp.max_jerk = limits.j_max.tolist()
+    inp.synchronization = synchronization
+    profile = ruckig.Trajectory(6)
+    result = ruckig.Ruckig(6).calculate(inp, profile)
+    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+        raise PlanningError(f"ruckig found no {what} ({result})")
+    for j, ext in enumerate(profile.position_extrema):
+        if ext.min < limits.lower[j] - LIMIT_SLACK or ext.max > limits.upper[j] + LIMIT_SLACK:
+            raise PlanningError(f"{what} of joint_{j + 1} overshoots its position limits")
+    return profile
+
+
 def plan_ptp(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: JointLimits) -> PtpTrajectory:
     """A phase-synchronised, jerk-limited joint move from rest at ``q_start`` to rest at ``q_goal``.
 
@@ -182,24 +222,10 @@ def plan_ptp(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: JointLimits)
         raise PlanningError("PTP start or goal contains NaN or inf")
     limits.check_position(qs, "PTP start")
     limits.check_position(qg, "PTP goal")
-    inp = ruckig.InputParameter(6)
-    inp.current_position = qs.tolist()
-    inp.current_velocity = [0.0] * 6
-    inp.current_acceleration = [0.0] * 6
-    inp.target_position = qg.tolist()
-    inp.target_velocity = [0.0] * 6
-    inp.target_acceleration = [0.0] * 6
-    inp.max_velocity = limits.v_max.tolist()
-    inp.max_acceleration = limits.a_max.tolist()
-    inp.max_jerk = limits.j_max.tolist()
-    inp.synchronization = ruckig.Synchronization.Phase
-    profile = ruckig.Trajectory(6)
-    result = ruckig.Ruckig(6).calculate(inp, profile)
-    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise PlanningError(f"ruckig found no PTP profile ({result})")
-    for j, ext in enumerate(profile.position_extrema):
-        if ext.min < limits.lower[j] - LIMIT_SLACK or ext.max > limits.upper[j] + LIMIT_SLACK:
-            raise PlanningError(f"PTP profile of joint_{j + 1} overshoots its position limits")
+    zero = np.zeros(6)
+    profile = ruckig_profile(
+        qs, zero, qg, zero, limits, ruckig.Synchronization.Phase, "PTP profile"
+    )
     return PtpTrajectory(profile, qs, qg)
 
 
