@@ -11,6 +11,11 @@ Run: ``python benchmarks/run.py [--cycles N] [--seed S] [--repeat R]``. Prints f
 * Overhead: the control loop (``Cell.track``) and the whole run against ``mj_step`` alone for the
   same steps (the sum of the timed ``mj_step`` calls): the issue's target is a loop at most 1.3x
   the bare physics.
+* Physics by tick kind: a third run reads MuJoCo's own timers around every step and splits the
+  cost of a step by what touches what (the arm moving with nothing in contact, the fingers
+  gripping a part, other contacts such as a part settling in the bin) and by stage (collision
+  broad and narrow phase, constraint solver, the rest). Its last line is the ceiling the physics
+  sets: the real-time factor of a run whose every step cost as little as the cheapest kind.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from collections.abc import Callable
 from typing import Any
 
 import mujoco
+import numpy as np
 
 import kr210_sim.plan.collide as collide
 import kr210_sim.plan.planner as task
@@ -119,6 +125,68 @@ def main() -> None:
     print(
         f"whole run          : {total / physics:6.2f} x mj_step alone (planning and sampling too)"
     )
+    physics_by_kind(args.cycles, args.seed)
+
+
+STAGES = (
+    ("collision, broad phase", mujoco.mjtTimer.mjTIMER_COL_BROAD),
+    ("collision, narrow phase", mujoco.mjtTimer.mjTIMER_COL_NARROW),
+    ("constraint solver", mujoco.mjtTimer.mjTIMER_CONSTRAINT),
+)
+KINDS = ("arm alone, no contact", "fingers gripping a part", "other contacts")
+
+
+def _tick_kind(model: mujoco.MjModel, data: mujoco.MjData, fingers: frozenset[int]) -> int:
+    """0: nothing in contact, 1: a finger geom touches something, 2: other contacts only."""
+    if data.ncon == 0:
+        return 0
+    geoms = data.contact.geom[: data.ncon]
+    return 1 if any(int(g) in fingers for g in geoms.ravel()) else 2
+
+
+def physics_by_kind(cycles: int, seed: int) -> None:
+    """Print where ``mj_step`` spends its time, split by tick kind and stage (MuJoCo's timers)."""
+    runner = Runner(RunConfig(cycles=cycles, seed=seed))
+    model, data = runner.model, runner.cell.data
+    fingers = frozenset(
+        g
+        for g in range(model.ngeom)
+        if "finger" in (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "")
+    )
+    timers = [data.timer[mujoco.mjtTimer.mjTIMER_STEP]] + [data.timer[t] for _, t in STAGES]
+    cost = np.zeros((len(KINDS), len(timers)))
+    ticks = np.zeros(len(KINDS), dtype=int)
+    step = mujoco.mj_step
+
+    def counted(m: mujoco.MjModel, d: mujoco.MjData, nstep: int = 1) -> None:
+        before = [t.duration for t in timers]
+        step(m, d, nstep)
+        kind = _tick_kind(m, d, fingers)
+        cost[kind] += [t.duration - b for t, b in zip(timers, before, strict=True)]
+        ticks[kind] += 1
+
+    control.mujoco.mj_step = counted  # type: ignore[attr-defined]
+    try:
+        for i in range(1, cycles + 1):
+            runner.run_cycle(i, runner.slot_for_cycle())
+    finally:
+        control.mujoco.mj_step = step  # type: ignore[attr-defined]
+    sim = sum(r.cycle_time for r in runner.results)
+    total = cost[:, 0].sum()
+    print(f"physics by tick kind (MuJoCo's timers, {total:.2f} s in mj_step):")
+    header = "".join(f"{name:>25s}" for name, _ in STAGES)
+    print(f"  {'kind':26s} {'ticks':>7s} {'share':>6s} {'us/step':>8s}{header}")
+    for k, name in enumerate(KINDS):
+        if ticks[k] == 0:
+            continue
+        per = 1e6 * cost[k] / ticks[k]
+        stages = "".join(f"{v:25.1f}" for v in per[1:])
+        print(f"  {name:26s} {ticks[k]:7,d} {100 * cost[k, 0] / total:5.1f}% {per[0]:8.1f}{stages}")
+    cheapest = min(cost[k, 0] / ticks[k] for k in range(len(KINDS)) if ticks[k])
+    ceiling = sim / (cheapest * ticks.sum())
+    print(f"physics ceiling    : {sim / total:6.1f} x real time for mj_step alone as it runs")
+    cheap = f"{1e6 * cheapest:.1f} us (the cheapest kind)"
+    print(f"                     {ceiling:6.1f} x if every step cost {cheap}")
 
 
 if __name__ == "__main__":
