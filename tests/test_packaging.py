@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 #: What a wheel is built from (everything the package ships).
-SOURCES = ("pyproject.toml", "README.md", "kr210_sim", "assets", "scenes")
+SOURCES = ("pyproject.toml", "README.md", "LICENSE", "kr210_sim", "assets", "scenes")
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -44,6 +44,8 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/assets/kr210/meshes/link_1.stl",
         "kr210_sim/scenes/kr210_cell.xml",
     } <= names
+    licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
+    assert b"MIT License" in zipfile.ZipFile(wheel).read(licence)
 
     # A fresh venv; the dependencies come from this environment (a path in a .pth file), so the
     # test downloads nothing. pip installs the wheel into the venv from outside it.
