@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from kr210_sim.cell.load import model_for
-from kr210_sim.cell.toml import PUBLISHED_CELL
+from kr210_sim.cell.load import compile_cell, model_for
+from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.cli import main
 from kr210_sim.errors import UnservableCellError
 from kr210_sim.plan.cellcheck import check_cell
@@ -70,6 +70,18 @@ def test_the_column_cell_needs_detours_and_gets_them() -> None:
     result = check_cell(model_for(cell=CELLS / "column.toml"))
     assert result.ok
     assert sum(r.detour for r in result.slots) >= 5
+
+
+def test_a_slot_whose_radial_pick_collides_is_served_from_another_heading() -> None:
+    """The column moved beside the shelf's left bay (2.0, 0.55): link 4 strikes it at every
+    radial pose of slots 1, 4 and 7 (no_path before); they are picked 25-30 deg off the radial,
+    and the table says so."""
+    text = (CELLS / "column.toml").read_text()
+    text = text.replace("position = [1.8, 1.0, 1.5]", "position = [2.0, 0.55, 1.5]")
+    result = check_cell(compile_cell(parse_cell(text)))
+    assert result.ok
+    assert [r.heading_deg for r in result.slots] == [-30, 0, 0, -25, 0, 0, -30, 0, 0]
+    assert "picked -25 deg off the radial (that one collides)" in result.table()
 
 
 @pytest.mark.slow

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import compile_cell, model_for
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
@@ -29,15 +30,21 @@ def _planner(model: mujoco.MjModel, seed: int = 0) -> Planner:
     return Planner(robot, MotionConfig(), None, CollisionChecker(model, Kinematics(robot)), seed)
 
 
-def _box(model: mujoco.MjModel, center: tuple[float, float, float], half: float) -> None:
-    """Move and resize the cell's obstacle_1 (alone in its body) to a cube; the body's bounding
-    volume is kept about its inertial frame, which moves with it."""
+def _box(
+    model: mujoco.MjModel,
+    center: tuple[float, float, float],
+    half: float | tuple[float, float, float],
+) -> None:
+    """Move and resize the cell's obstacle_1 (alone in its body) to a box of half extents
+    ``half`` [m] (one number: a cube); the body's bounding volume is kept about its inertial
+    frame, which moves with it."""
     i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "obstacle_1")
+    size = np.broadcast_to(np.asarray(half, dtype=np.float64), (3,))
     model.geom_pos[i] = center
     model.body_ipos[model.geom_bodyid[i]] = center
-    model.geom_size[i] = (half, half, half)
-    model.geom_rbound[i] = math.sqrt(3) * half
-    model.geom_aabb[i, 3:] = half
+    model.geom_size[i] = size
+    model.geom_rbound[i] = float(np.linalg.norm(size))
+    model.geom_aabb[i, 3:] = size
 
 
 def test_a_blocked_ready_pose_gives_way_to_the_nearest_clear_one() -> None:
@@ -66,11 +73,48 @@ def test_the_cell_files_ready_pose_is_used() -> None:
 
 
 def test_a_blocked_straight_line_is_no_path_with_what_blocks() -> None:
+    """A plate across the middle bay's opening, at the grasp height: every heading's approach
+    line strikes it."""
     model = model_for(cell=CELLS / "column.toml")
-    _box(model, (2.2, 0.0, 1.68), 0.025)  # between the middle slot's standoff and its grasp
+    _box(model, (2.2, 0.0, 1.68), (0.025, 0.45, 0.025))
     planner = _planner(model)
-    with pytest.raises(NoPathError, match=r"approach straight-line move: .* against obstacle_1"):
+    with pytest.raises(
+        NoPathError,
+        match=r"approach straight-line move: .* against obstacle_1 .*; no other heading within "
+        r"45 deg of the radial is clear either",
+    ):
         planner.plan_grasp(planner.ready_q, np.array([2.6, 0.0, 1.681]), 0.05, 0.25)
+
+
+def test_a_pick_blocked_radially_is_made_from_another_heading() -> None:
+    """A 5 cm cube on the middle slot's radial approach line, 0.4 m before the target: the
+    gripper or a finger strikes it up to 20 deg off the radial, the pick points 25 deg off it
+    (the positive side first), along straight lines that keep clear."""
+    model = model_for(cell=CELLS / "column.toml")
+    _box(model, (2.2, 0.0, 1.68), 0.025)
+    planner = _planner(model)
+    plan = planner.plan_grasp(planner.ready_q, np.array([2.6, 0.0, 1.681]), 0.05, 0.25)
+    assert math.degrees(plan.yaw) == pytest.approx(25.0)
+    assert plan.T_grasp[:3, 0] == pytest.approx([math.cos(plan.yaw), math.sin(plan.yaw), 0.0])
+    assert [m.planner for m in (plan.approach_lin, plan.lift, plan.retreat)] == ["direct"] * 3
+    for move in (plan.approach_ptp, plan.approach_lin, plan.lift):
+        assert planner._hit(move, None) is None
+
+
+def test_a_column_beside_the_shelf_is_picked_past_and_run_clear() -> None:
+    """The column moved to (2.0, 0.55), by the slots of the shelf's left bay: link 4 strikes it
+    at every radial pose of slot 1 (which failed every cycle), the pick 30 deg off the radial
+    passes it; the cycle runs with no contact."""
+    text = (CELLS / "column.toml").read_text()
+    text = text.replace("position = [1.8, 1.0, 1.5]", "position = [2.0, 0.55, 1.5]")
+    model = compile_cell(parse_cell(text))
+    runner = Runner(RunConfig(cycles=1), model=model)
+    r = runner.run_cycle(1, 1)
+    assert r.success and r.env_contact_ticks == 0
+    t = CellLayout.from_model(model).target
+    slot = CellLayout.from_model(model).slots[0] + (0.0, 0.0, t.length / 2)
+    plan = runner.planner.plan_grasp(runner.planner.ready_q, slot, t.radius, t.length)
+    assert math.degrees(plan.yaw - math.atan2(slot[1], slot[0])) == pytest.approx(-30.0)
 
 
 def test_ompl_moves_are_seeded_clear_and_not_far_above_their_bound() -> None:
@@ -99,3 +143,4 @@ def test_a_cycle_reports_each_moves_duration_and_bound() -> None:
     summary = summarise([r])
     ratio = summary["motion_time_over_bound"]
     assert ratio["mean"] == pytest.approx(r.bound_ratio) and 1.0 < ratio["mean"] < 1.3
+

@@ -7,7 +7,8 @@ return, each collision-checked (:mod:`kr210_sim.plan.collide`) and planned aroun
 (OMPL) where it must be.
 Every drop spot is planned from the ready pose with the target held. The table says, per row,
 whether it is reachable, whether a collision-free plan was found, which planner found it
-(direct, or OMPL and for which phases), the planning time, the length of the path in joint
+(direct, or OMPL and for which phases), the gripper's heading at the pick when the radial one
+collides, the planning time, the length of the path in joint
 space and at the gripper, and what blocks otherwise; above it, whether the ready pose had to be
 moved clear of the cell.
 """
@@ -15,6 +16,7 @@ moved clear of the cell.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -26,7 +28,7 @@ from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.cycle import Move, drop_spot_index
+from kr210_sim.plan.cycle import CyclePlan, drop_spot_index
 from kr210_sim.plan.planner import Planner
 from kr210_sim.plan.routing import path_lengths
 from kr210_sim.robot.description import RobotDescription, load_robot
@@ -51,6 +53,8 @@ class CheckRow:
         planner: "direct", or "ompl" and the phases OMPL planned ("ompl: approach, carry").
         joint_length: Length of the plan's path in joint space [rad].
         gripper_length: Length of the gripper's path [m].
+        heading_deg: The gripper's heading at the pick off the radial one [deg] (0 unless
+            the radial pick collides).
     """
 
     what: str
@@ -63,6 +67,7 @@ class CheckRow:
     planner: str = ""
     joint_length: float = 0.0
     gripper_length: float = 0.0
+    heading_deg: float = 0.0
 
     @property
     def served(self) -> bool:
@@ -105,28 +110,29 @@ class CellCheck:
             lines.append(f"  ready pose: {self.ready_note}")
         lines.append(
             f"  {'':<8} {'reachable':>9} {'path':>5} {'planner':<22} {'plan ms':>8} "
-            f"{'joint rad':>9} {'gripper m':>9}  blocked by"
+            f"{'joint rad':>9} {'gripper m':>9}  blocked by (or note)"
         )
         yes = {True: "yes", False: "no"}
         for r in (*self.slots, *self.drops):
+            detail = r.detail
             if r.path:
                 figures = f"{r.joint_length:9.2f} {r.gripper_length:9.2f}"
+                if r.heading_deg:
+                    detail = f"picked {r.heading_deg:+.0f} deg off the radial (that one collides)"
             else:
                 figures = f"{'-':>9} {'-':>9}"
             lines.append(
                 f"  {r.what:<8} {yes[r.reachable]:>9} {yes[r.path]:>5} "
-                f"{r.planner if r.path else '-':<22} {r.planning_ms:8.1f} {figures}  {r.detail}"
+                f"{r.planner if r.path else '-':<22} {r.planning_ms:8.1f} {figures}  {detail}"
             )
         return "\n".join(lines)
 
 
-def _row(
-    what: str, drop_spot: int, planner: Planner, plan: Callable[[], tuple[Move, ...]]
-) -> CheckRow:
+def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], CyclePlan]) -> CheckRow:
     detours = planner.detours
     t0 = time.perf_counter()
     try:
-        moves = plan()
+        cycle = plan()
     except NoPathError as exc:
         ms = 1e3 * (time.perf_counter() - t0)
         return CheckRow(what, True, False, False, ms, str(exc), drop_spot)
@@ -134,13 +140,15 @@ def _row(
         ms = 1e3 * (time.perf_counter() - t0)
         return CheckRow(what, False, False, False, ms, str(exc), drop_spot)
     ms = 1e3 * (time.perf_counter() - t0)
+    moves = cycle.moves
     ompl = [m.phase for m in moves if m.planner == "ompl"]
     used = f"ompl: {', '.join(dict.fromkeys(ompl))}" if ompl else "direct"
     lengths = [path_lengths(m.trajectory, planner.kinematics) for m in moves]
     joint = sum(a for a, _ in lengths)
     grip = sum(b for _, b in lengths)
     detour = planner.detours > detours
-    return CheckRow(what, True, True, detour, ms, "", drop_spot, used, joint, grip)
+    heading = round(math.degrees(cycle.heading_offset), 6)
+    return CheckRow(what, True, True, detour, ms, "", drop_spot, used, joint, grip, heading)
 
 
 #: Geom groups of colliders (cell parts 0, robot and dressing colliders 3): what a dropped
@@ -199,12 +207,12 @@ def check_cell(
     ready = planner.ready_q
     first = drop_spot_index(0, len(layout.drop_spots)) + 1  # a run's first cycle's
 
-    def slot_plan(n: int) -> tuple[Move, ...]:
+    def slot_plan(n: int) -> CyclePlan:
         p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
-        return planner.plan_cycle(ready, p, t, layout.drop_spots).moves
+        return planner.plan_cycle(ready, p, t, layout.drop_spots)
 
-    def drop_plan(n: int) -> tuple[Move, ...]:  # the place part of a cycle, from the ready pose
-        return planner.plan_place(ready, t, layout.drop_spots, placed=n - 1).moves
+    def drop_plan(n: int) -> CyclePlan:  # the place part of a cycle, from the ready pose
+        return planner.plan_place(ready, t, layout.drop_spots, placed=n - 1)
 
     slots = tuple(
         _row(f"slot {n}", first, planner, partial(slot_plan, n))

@@ -86,9 +86,11 @@ class CyclePlan:
         steps: The steps in order.
         drop_spot: Index of the drop spot the carry goes to (0-based, in the cell's order).
         drop_xy: That drop spot [m].
-        detours: Moves of this plan planned through via points to keep clear of the cell.
+        detours: Moves of this plan planned by OMPL around what blocked their direct move.
         wall_time: Wall-clock time of the planning [s].
         cpu_time: CPU time of the planning [s].
+        heading_offset: The gripper's heading at the pick off the radial one [rad] (0 unless
+            the radial pick collides, :meth:`~kr210_sim.plan.planner.Planner.plan_grasp`).
     """
 
     steps: tuple[Step, ...]
@@ -97,6 +99,7 @@ class CyclePlan:
     detours: int
     wall_time: float
     cpu_time: float
+    heading_offset: float = 0.0
 
     @property
     def phases(self) -> tuple[str, ...]:

@@ -37,7 +37,7 @@ import numpy.typing as npt
 
 from kr210_sim.cell.layout import ready_q_of
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
-from kr210_sim.errors import NoPathError, PlanningError, UnreachablePoseError
+from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
 from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_index
 from kr210_sim.plan.routing import Router, clear_ready
@@ -68,6 +68,8 @@ class GraspPlan:
         approach_lin: standoff -> grasp.
         lift: grasp -> lifted.
         retreat: lifted -> lifted standoff.
+        yaw: Heading the gripper points in [rad] (radial unless that collides,
+            :meth:`Planner.plan_grasp`).
     """
 
     T_grasp: FloatArray
@@ -75,6 +77,7 @@ class GraspPlan:
     approach_lin: Move
     lift: Move
     retreat: Move
+    yaw: float = 0.0
 
 
 def grasp_depth(robot: RobotDescription, radius: float) -> float:
@@ -116,6 +119,10 @@ def radial_yaw(position: npt.ArrayLike) -> float:
     p = np.asarray(position, dtype=np.float64)
     return math.atan2(p[1], p[0])
 
+
+#: Headings tried for a pick, off the radial, when the radial one collides [deg]: the nearest
+#: first, to either side (the wrist twists more the farther off the radial it points).
+GRASP_HEADINGS = tuple(s * d for d in range(5, 50, 5) for s in (1, -1))
 
 #: Largest |q4| and |q6| of an untwisted wrist [rad].
 UNTWISTED = math.pi / 2
@@ -292,18 +299,20 @@ class Planner:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
 
     def grasp_poses(
-        self, target_position: npt.ArrayLike, target_radius: float
+        self, target_position: npt.ArrayLike, target_radius: float, yaw: float | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """gripper_link poses (4x4) of a pick: standoff, grasp, lift and lifted standoff.
 
         Args:
             target_position: Observed target centre [m].
             target_radius: Target radius [m].
+            yaw: Heading the gripper points in [rad] (None: radial, :func:`radial_yaw`).
         """
         m = self.motion
         p = np.asarray(target_position, dtype=np.float64)
         depth = grasp_depth(self.robot, target_radius)
-        yaw = radial_yaw(p)
+        if yaw is None:
+            yaw = radial_yaw(p)
         u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
         up = np.array([0.0, 0.0, 1.0])
         grasp = p - depth * u + m.grasp_dz * up
@@ -322,6 +331,12 @@ class Planner:
     ) -> GraspPlan:
         """Plan ready -> standoff -> grasp -> lift -> retreat for a target.
 
+        The gripper points radially (see the module doc). When a pose or a straight line of that
+        pick collides (an obstacle beside the shelf, in the way of the wrist), the headings
+        :data:`GRASP_HEADINGS` off the radial are tried in turn, those whose four poses are
+        clear only: a cylinder can be gripped from any side. The joint move to the chosen
+        standoff is planned last (OMPL when the direct one collides).
+
         Args:
             q_start: Arm joint state at the start [rad].
             target_position: Observed target centre [m].
@@ -329,24 +344,90 @@ class Planner:
             held_length: Target length [m], for the collision checks of the held target.
 
         Raises:
-            UnreachablePoseError: When a pose has no IK solution inside the limits.
-            NoPathError: When a move collides with the cell and no detour is clear.
+            UnreachablePoseError: When a pose of the radial pick has no IK solution inside the
+                limits.
+            NoPathError: When a straight line collides at every heading (the message says what
+                blocks the radial one), or the approach collides and OMPL finds no clear path.
             IkFailedError: When the user's IK gives an unusable answer.
             PlanningError: When a trajectory breaks a limit.
         """
-        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, target_radius)
+        p = np.asarray(target_position, dtype=np.float64)
+        radial = radial_yaw(p)
+        held = TargetSpec(radius=target_radius, length=held_length or 0.25)
+        try:
+            yaw, lines = radial, self._pick_lines(q_start, p, target_radius, held, radial)
+        except NoPathError as blocked:
+            yaw, lines = self._other_heading(q_start, p, target_radius, held, blocked)
+        approach_lin, lift, retreat = lines
+        approach_ptp = self.ptp("approach", q_start, approach_lin.trajectory.q_start)
+        if self.checker is not None:
+            approach_ptp = self.checked(approach_ptp)
+        T_grasp = self.grasp_poses(p, target_radius, yaw)[1]
+        return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat, yaw)
+
+    def _pick_lines(
+        self, q_start: FloatArray, p: FloatArray, radius: float, held: TargetSpec, yaw: float
+    ) -> tuple[Move, Move, Move]:
+        """The straight lines of a pick at heading ``yaw`` [rad] (approach, lift, retreat from
+        the standoff nearest ``q_start``), checked against the cell.
+
+        Raises:
+            NoPathError: When one collides (its ends included).
+        """
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(p, radius, yaw)
         q_standoff = self.solve(T_standoff, q_start, "standoff")
-        approach_ptp = self.ptp("approach", q_start, q_standoff)
         approach_lin = self.lin("approach", q_standoff, T_grasp)
         lift = self.lin("lift", approach_lin.q_end, T_lift)
         retreat = self.lin("retreat", lift.q_end, T_back)
         if self.checker is not None:
-            held = TargetSpec(radius=target_radius, length=held_length or 0.25)
-            approach_ptp = self.checked(approach_ptp)
-            self.checked(approach_lin)
-            self.checked(lift)  # the target starts on its board: the arm alone is checked
-            self.checked(retreat, held)
-        return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat)
+            approach_lin = self.checked(approach_lin)
+            lift = self.checked(lift)  # the target starts on its board: the arm alone is checked
+            retreat = self.checked(retreat, held)
+        return approach_lin, lift, retreat
+
+    def _other_heading(
+        self,
+        q_start: FloatArray,
+        p: FloatArray,
+        radius: float,
+        held: TargetSpec,
+        blocked: NoPathError,
+    ) -> tuple[float, tuple[Move, Move, Move]]:
+        """The first heading of :data:`GRASP_HEADINGS` whose pick's poses and lines are clear.
+
+        Raises:
+            NoPathError: When none is (``blocked``, what blocks the radial pick, and that).
+        """
+        radial = radial_yaw(p)
+        for offset in GRASP_HEADINGS:
+            yaw = radial + math.radians(offset)
+            if not self._poses_clear(q_start, p, radius, held, yaw):
+                continue
+            try:
+                return yaw, self._pick_lines(q_start, p, radius, held, yaw)
+            except (NoPathError, UnreachablePoseError, IkFailedError):
+                continue
+        widest = max(GRASP_HEADINGS)
+        raise NoPathError(
+            f"{blocked}; no other heading within {widest} deg of the radial is clear either"
+        ) from blocked
+
+    def _poses_clear(
+        self, q_start: FloatArray, p: FloatArray, radius: float, held: TargetSpec, yaw: float
+    ) -> bool:
+        """Whether the standoff, grasp, lift and lifted standoff at heading ``yaw`` [rad] have
+        IK solutions that keep clear of the cell (four checks, before the lines are planned)."""
+        assert self.checker is not None
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(p, radius, yaw)
+        try:
+            q = [self.solve(T_standoff, q_start, "standoff")]
+            for T in (T_grasp, T_lift, T_back):
+                q.append(self.solve(T, q[-1], "grasp"))
+        except (UnreachablePoseError, IkFailedError):
+            return False
+        if self.checker.first_hit(np.array(q[:3])) is not None:
+            return False
+        return self.checker.first_hit(q[3][None], held, self.held_offset(radius)) is None
 
     def drop_pose(self, drop_xy: npt.ArrayLike, target_radius: float) -> FloatArray:
         """gripper_link pose that holds the target's centre above ``drop_xy`` [m] at release."""
@@ -405,8 +486,8 @@ class Planner:
         """
         t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
         r, length = target.radius, target.length
-        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r)
         g = self.plan_grasp(q_start, target_position, r, length)
+        T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r, g.yaw)
         place = self.plan_place(g.retreat.q_end, target, drop_spots, placed)
         steps = (
             Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
@@ -423,6 +504,7 @@ class Planner:
             self.detours - detours0,
             time.perf_counter() - t0,
             time.process_time() - c0,
+            math.remainder(g.yaw - radial_yaw(target_position), 2 * math.pi),
         )
 
     def plan_place(
