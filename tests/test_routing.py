@@ -143,4 +143,3 @@ def test_a_cycle_reports_each_moves_duration_and_bound() -> None:
     summary = summarise([r])
     ratio = summary["motion_time_over_bound"]
     assert ratio["mean"] == pytest.approx(r.bound_ratio) and 1.0 < ratio["mean"] < 1.3
-
