@@ -11,7 +11,7 @@ import pytest
 
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import compile_cell, model_for
-from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.errors import NoPathError
 from kr210_sim.plan.collide import CollisionChecker
@@ -143,3 +143,22 @@ def test_a_cycle_reports_each_moves_duration_and_bound() -> None:
     summary = summarise([r])
     ratio = summary["motion_time_over_bound"]
     assert ratio["mean"] == pytest.approx(r.bound_ratio) and 1.0 < ratio["mean"] < 1.3
+
+
+def test_the_empty_gripper_moves_at_the_higher_jerk_the_grip_moves_do_not() -> None:
+    """The approach to the standoff and the return run at ``jerk_scale`` (24), shorter than at
+    12; the lines in and out of the shelf and the carry at ``grip_jerk_scale`` (12), unchanged."""
+    robot = load_robot()
+    slot = np.array([2.6, 0.0, 1.681])
+    drops = np.array([[0.0, 2.5]])
+    target = TargetSpec(radius=0.05, length=0.25)
+    durations = []
+    for motion in (MotionConfig(), MotionConfig(jerk_scale=12.0)):
+        planner = Planner(robot, motion)
+        plan = planner.plan_cycle(planner.ready_q, slot, target, drops)
+        durations.append({f"{m.phase} {m.kind}": m.trajectory.duration for m in plan.moves})
+    fast, slow = durations
+    assert fast["approach ptp"] < slow["approach ptp"] - 0.03
+    assert fast["return ptp"] < slow["return ptp"] - 0.03
+    for key in ("approach lin", "lift lin", "retreat lin", "carry ptp"):
+        assert fast[key] == slow[key]

@@ -53,6 +53,9 @@ def test_limits_from_robot() -> None:
     m = MotionConfig()
     assert np.allclose(LIMITS.a_max, m.accel_scale * LIMITS.v_max)
     assert np.allclose(LIMITS.j_max, m.jerk_scale * LIMITS.a_max)
+    grip = JointLimits.from_robot(load_robot(), m, grip=True)
+    assert np.allclose(grip.j_max, m.grip_jerk_scale * LIMITS.a_max)
+    assert (m.jerk_scale, m.grip_jerk_scale) == (24.0, 12.0)
 
 
 def test_ptp_respects_limits_and_arrives_together() -> None:

@@ -287,7 +287,12 @@ class MotionConfig:
     Attributes:
         accel_scale: Joint acceleration limit as a multiple of the velocity limit, in [1/s]
             (acceleration [rad/s^2] = accel_scale * velocity limit [rad/s]).
-        jerk_scale: Joint jerk limit as a multiple of the acceleration limit, in [1/s].
+        jerk_scale: Joint jerk limit as a multiple of the acceleration limit, in [1/s], of the
+            joint moves with the gripper empty (to the standoff, back to the ready pose).
+        grip_jerk_scale: The same for the moves into, with and out of the grip, in [1/s]: the
+            straight lines (approach, lift, retreat) and the carry. The arm's ringing at the
+            grasp seats the cylinder and the grip carries its inertia: at ``jerk_scale`` 24
+            the approach line raised the lips' peak load by a sixth (p95 over 100 cycles).
         lin_speed: Cartesian speed of straight-line moves in [m/s].
         lin_step: Sample spacing of straight-line moves in [m].
         standoff: Distance of the joint-space approach pose before the grasp pose, along the
@@ -301,7 +306,8 @@ class MotionConfig:
     """
 
     accel_scale: float = 4.0
-    jerk_scale: float = 12.0
+    jerk_scale: float = 24.0
+    grip_jerk_scale: float = 12.0
     lin_speed: float = 1.0
     lin_step: float = 0.01
     standoff: float = 0.5
@@ -316,6 +322,7 @@ class MotionConfig:
         for name in (
             "accel_scale",
             "jerk_scale",
+            "grip_jerk_scale",
             "lin_speed",
             "lin_step",
             "standoff",

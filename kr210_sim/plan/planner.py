@@ -188,7 +188,10 @@ class Planner:
         #: The kinematics of ``robot``.
         self.kinematics = Kinematics(robot)
         self.motion = motion
+        #: Joint limits of the joint moves with the gripper empty, and of the moves into, with
+        #: and out of the grip (a gentler jerk, :class:`~kr210_sim.cell.spec.MotionConfig`).
         self.limits = JointLimits.from_robot(robot, motion)
+        self.grip_limits = JointLimits.from_robot(robot, motion, grip=True)
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
         self.user_ik = CheckedIk(ik, self.kinematics) if ik is not None else None
         self.checker = checker
@@ -199,7 +202,7 @@ class Planner:
         self._returns: dict[bytes, Move] = {}
         self.router: Router | None = None
         if checker is not None:
-            self.router = Router(checker, self.kinematics, self.limits, seed)
+            self.router = Router(checker, self.kinematics, self.limits, seed, self.grip_limits)
             cell_ready = ready_q_of(checker.model)
             if cell_ready is not None:
                 self.ready_q = cell_ready
@@ -259,15 +262,17 @@ class Planner:
             routed.bound,
         )
 
-    def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray) -> Move:
-        """A joint-space move at rest at both ends."""
+    def ptp(self, phase: str, q_start: FloatArray, q_goal: FloatArray, grip: bool = False) -> Move:
+        """A joint-space move at rest at both ends (``grip``: at :attr:`grip_limits`)."""
         t0 = time.perf_counter()
-        traj = plan_ptp(q_start, q_goal, self.limits)
-        bound = rest_to_rest_bound(q_start, q_goal, self.limits)
+        limits = self.grip_limits if grip else self.limits
+        traj = plan_ptp(q_start, q_goal, limits)
+        bound = rest_to_rest_bound(q_start, q_goal, limits)
         return Move(phase, "ptp", traj, "direct", time.perf_counter() - t0, bound)
 
-    def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray) -> Move:
-        """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal``."""
+    def lin(self, phase: str, q_start: FloatArray, T_goal: FloatArray, grip: bool = True) -> Move:
+        """A straight-line Cartesian move from the pose at ``q_start`` to ``T_goal`` (at
+        :attr:`grip_limits` unless ``grip`` is False)."""
         t0 = time.perf_counter()
         T_start = self.kinematics.forward(q_start)
         ik: Callable[[FloatArray, FloatArray], FloatArray] = self.kinematics.nearest
@@ -278,7 +283,7 @@ class Planner:
             T_goal,
             q_start,
             ik,
-            self.limits,
+            self.grip_limits if grip else self.limits,
             speed=self.motion.lin_speed,
             step=self.motion.lin_step,
         )
@@ -450,7 +455,7 @@ class Planner:
         (checked with the target held, detoured if it must be)."""
         q_drop = self.solve(self.drop_pose(drop_xy, target_radius), q_start, "drop", True)
         held = TargetSpec(radius=target_radius, length=target_length)
-        return self.checked(self.ptp("carry", q_start, q_drop), held)
+        return self.checked(self.ptp("carry", q_start, q_drop, grip=True), held)
 
     def plan_return(self, q_start: FloatArray) -> Move:
         """Joint-space move from ``q_start`` back to the ready pose (checked, detoured if it

@@ -64,14 +64,22 @@ class Router:
         kin: The arm's kinematics.
         limits: Joint limits.
         seed: The run's seed (OMPL's plans are seeded from it).
+        grip_limits: Joint limits of moves that hold the target (default: ``limits``): a move
+            is timed with them when the checker holds a target (:meth:`~CollisionChecker.hold`).
     """
 
     def __init__(
-        self, checker: CollisionChecker, kin: Kinematics, limits: JointLimits, seed: int = 0
+        self,
+        checker: CollisionChecker,
+        kin: Kinematics,
+        limits: JointLimits,
+        seed: int = 0,
+        grip_limits: JointLimits | None = None,
     ) -> None:
         self.checker = checker
         self.kin = kin
         self.limits = limits
+        self.grip_limits = grip_limits or limits
         self.sampler = SamplingPlanner(checker, limits.lower, limits.upper, seed)
 
     def hit(self, traj: Trajectory) -> Hit | None:
@@ -85,7 +93,8 @@ class Router:
         self, q_start: FloatArray, q_goal: FloatArray, phase: str, blocked: Hit | None = None
     ) -> Routed:
         """A clear move from rest at ``q_start`` to rest at ``q_goal`` [rad], checked under the
-        checker's current :meth:`~CollisionChecker.hold`.
+        checker's current :meth:`~CollisionChecker.hold` (and timed at :attr:`grip_limits`
+        when it holds a target).
 
         Args:
             q_start: Start [rad].
@@ -100,12 +109,14 @@ class Router:
             PlanningError: When a trajectory breaks a limit.
         """
         t0, checks0 = time.perf_counter(), self.checker.checks
+        held = self.checker.holding
+        limits = self.grip_limits if held else self.limits
         hit = blocked
         if hit is None:
-            direct = plan_ptp(q_start, q_goal, self.limits)
+            direct = plan_ptp(q_start, q_goal, limits)
             hit = self.hit(direct)
         if hit is None:
-            bound = rest_to_rest_bound(q_start, q_goal, self.limits)
+            bound = rest_to_rest_bound(q_start, q_goal, limits)
             return Routed(
                 direct,
                 "direct",
@@ -114,19 +125,18 @@ class Router:
                 self.checker.checks - checks0,
                 None,
             )
-        held = self.checker.holding
         try:
             path = self.sampler.plan(q_start, q_goal, held)
             try:  # the coarse search's path, timed and checked at the fine step
-                traj, _ = time_path(path.waypoints, self.limits, self._clear)
+                traj, _ = time_path(path.waypoints, limits, self._clear)
             except PlanningError:  # not clear even along its straight segments: search finely
                 path = self.sampler.plan(q_start, q_goal, held, fine=True)
-                traj, _ = time_path(path.waypoints, self.limits, self._clear)
+                traj, _ = time_path(path.waypoints, limits, self._clear)
         except NoPathError as exc:
             raise NoPathError(f"{phase} move: {hit.describe()}; {exc}") from exc
-        check_limits(traj, self.limits)
+        check_limits(traj, limits)
         qs = traj.sample_many(np.linspace(0.0, traj.duration, BOUND_SAMPLES))[0]
-        bound = path_bound(qs, self.limits)
+        bound = path_bound(qs, limits)
         return Routed(
             traj, "ompl", time.perf_counter() - t0, bound, self.checker.checks - checks0, hit
         )

@@ -67,16 +67,15 @@ class JointLimits:
             raise PlanningError("every lower position limit must be below its upper limit")
 
     @classmethod
-    def from_robot(cls, robot: RobotDescription, motion: MotionConfig) -> JointLimits:
-        """URDF position and velocity limits; acceleration and jerk from ``motion``'s scales."""
+    def from_robot(
+        cls, robot: RobotDescription, motion: MotionConfig, grip: bool = False
+    ) -> JointLimits:
+        """URDF position and velocity limits; acceleration and jerk from ``motion``'s scales
+        (``grip``: the jerk of the moves into, with and out of the grip,
+        ``motion.grip_jerk_scale``)."""
         a = motion.accel_scale * robot.qd_max
-        return cls(
-            robot.q_lower.copy(),
-            robot.q_upper.copy(),
-            robot.qd_max.copy(),
-            a,
-            motion.jerk_scale * a,
-        )
+        jerk = motion.grip_jerk_scale if grip else motion.jerk_scale
+        return cls(robot.q_lower.copy(), robot.q_upper.copy(), robot.qd_max.copy(), a, jerk * a)
 
     def check_position(self, q: FloatArray, what: str) -> None:
         """Raise PlanningError when ``q`` [rad] (shape (..., 6)) leaves the position limits."""
