@@ -162,3 +162,33 @@ def test_the_empty_gripper_moves_at_the_higher_jerk_the_grip_moves_do_not() -> N
     assert fast["return ptp"] < slow["return ptp"] - 0.03
     for key in ("approach lin", "lift lin", "retreat lin", "carry ptp"):
         assert fast[key] == slow[key]
+
+
+def test_a_move_planned_again_is_remembered_not_searched_again() -> None:
+    """The same start, goal and hold: the same timed path (or the same no_path verdict), with
+    no validity check; another hold is planned anew."""
+    model = model_for(cell=CELLS / "column.toml")
+    planner = _planner(model)
+    router, checker = planner.router, planner.checker
+    assert router is not None and checker is not None
+    ready = planner.ready_q
+    goal = planner.solve(planner.grasp_poses(np.array([2.6, 0.0, 1.681]), 0.05)[0], ready, "s")
+    checker.hold(None, None)
+    first = router.route(ready, goal, "approach")
+    again = router.route(ready, goal, "approach")
+    assert first.planner == "ompl" and first.checks > 1000 and again.checks == 0
+    ts = np.linspace(0.0, first.trajectory.duration, 40)
+    assert np.array_equal(first.trajectory.sample_many(ts)[0], again.trajectory.sample_many(ts)[0])
+    assert again.bound == first.bound and again.hit == first.hit
+    checker.hold(TargetSpec(radius=0.05, length=0.25), planner.held_offset(0.05))
+    held = router.route(ready, goal, "approach")
+    assert held.checks > 0
+    blocked = np.array([0.333, 0.267, 0.464, 0.0, -0.731, 0.0])  # link 5 inside the column
+    _box(model, (2.0, 0.55, 1.5), (0.15, 0.15, 1.5))
+    walled = _planner(model)
+    assert walled.router is not None
+    for _ in range(2):
+        c0 = walled.checker.checks  # type: ignore[union-attr]
+        with pytest.raises(NoPathError, match="the goal of the move collides"):
+            walled.router.route(walled.ready_q, blocked, "approach")
+    assert walled.checker.checks == c0  # type: ignore[union-attr]

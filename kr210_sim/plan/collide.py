@@ -235,6 +235,8 @@ class CollisionChecker:
         self._cos_tilt = math.cos(math.radians(HOLD_TILT_DEG))
         self._grip_body = int(m.body("gripper_link").id)
         self._offset: FloatArray | None = None
+        #: What :meth:`hold` holds, as bytes (equal keys: the same states are valid).
+        self.hold_key = b""
         #: States checked so far.
         self.checks = 0
         self.hold(None, None)
@@ -249,12 +251,15 @@ class CollisionChecker:
         gripper_link frame [m]), or nothing (None), with the fingers at ``finger_q`` [m]
         (default: fully open)."""
         m, g, d = self.model, self._held_geom, self.data
-        d.qpos[self.handles.finger_qpos] = self._finger_open if finger_q is None else finger_q
+        finger = self._finger_open if finger_q is None else float(finger_q)
+        d.qpos[self.handles.finger_qpos] = finger
         if target is None or offset is None:
             m.geom_contype[g] = 0
             self._offset = None
+            self.hold_key = np.array([finger]).tobytes()
             return
         self._offset = np.asarray(offset, dtype=np.float64).reshape(3)
+        self.hold_key = np.array([finger, target.radius, target.length, *self._offset]).tobytes()
         m.geom_contype[g] = self._held_type
         r, half = target.radius, target.length / 2.0
         m.geom_size[g, :2] = (r, half)

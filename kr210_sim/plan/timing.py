@@ -13,7 +13,7 @@ rest-to-rest segments, whose phase-synchronised profiles follow the straight seg
 Bounds: a rest-to-rest move cannot be faster than its slowest joint alone at the velocity and
 acceleration limits (:func:`rest_to_rest_bound`); a timed path cannot be faster than the
 time-optimal parametrisation of the same geometric path under those limits (:func:`path_bound`,
-by toppra).
+:mod:`kr210_sim.plan.topp`).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import numpy.typing as npt
 import ruckig
 
 from kr210_sim.errors import PlanningError
+from kr210_sim.plan.topp import time_optimal_duration
 from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp, ruckig_profile
 
 FloatArray = npt.NDArray[np.float64]
@@ -38,8 +39,6 @@ WAYPOINT_SPEED = 0.9
 LIMIT_DT = 0.002
 #: Slack on the velocity and acceleration limits in the check (ruckig's own rounding).
 RATE_SLACK = 1e-6
-#: Samples of a path that toppra parametrises for the bound.
-BOUND_SAMPLES = 40
 
 
 def joint_min_time(distance: FloatArray, v_max: FloatArray, a_max: FloatArray) -> FloatArray:
@@ -58,25 +57,9 @@ def rest_to_rest_bound(q_start: npt.ArrayLike, q_goal: npt.ArrayLike, limits: Jo
 
 def path_bound(q: npt.ArrayLike, limits: JointLimits) -> float:
     """Time-optimal duration of the geometric path through the joint states ``q`` (n, 6)
-    [rad] at the velocity and acceleration limits, from rest to rest (toppra) [s]."""
-    import toppra as ta
-
-    qs = np.asarray(q, dtype=np.float64)
-    step = np.linalg.norm(np.diff(qs, axis=0), axis=1)
-    keep = np.concatenate([[True], step > 1e-9])
-    qs = qs[keep]
-    if len(qs) < 2:
-        return 0.0
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(qs, axis=0), axis=1))])
-    path = ta.SplineInterpolator(s / s[-1], qs)
-    v = ta.constraint.JointVelocityConstraint(np.column_stack([-limits.v_max, limits.v_max]))
-    a = ta.constraint.JointAccelerationConstraint(np.column_stack([-limits.a_max, limits.a_max]))
-    grid = np.linspace(0.0, 1.0, 2 * BOUND_SAMPLES + 1)
-    algo = ta.algorithm.TOPPRA([v, a], path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
-    traj = algo.compute_trajectory(0, 0)
-    if traj is None:
-        raise PlanningError("toppra found no parametrisation of the path")
-    return float(traj.duration)
+    [rad] at the velocity and acceleration limits, from rest to rest
+    (:func:`~kr210_sim.plan.topp.time_optimal_duration`) [s]."""
+    return time_optimal_duration(q, limits.v_max, limits.a_max)
 
 
 class BlendedTrajectory(Trajectory):
@@ -106,6 +89,19 @@ class BlendedTrajectory(Trajectory):
         p = self.profiles[i]
         q, qd, qdd = p.at_time(min(t - float(self.starts[i]), float(p.duration)))[:3]
         return np.array(q), np.array(qd), np.array(qdd)
+
+    def sample_many(self, ts: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        t = np.asarray(ts, dtype=np.float64)
+        out = np.zeros((3, len(t), 6))
+        inside = (t > 0.0) & (t < self.duration)
+        seg = np.maximum(np.searchsorted(self.starts, t, side="right") - 1, 0)
+        for i, p in enumerate(self.profiles):
+            at, start, end = p.at_time, float(self.starts[i]), float(p.duration)
+            for k in np.flatnonzero(inside & (seg == i)):
+                out[0, k], out[1, k], out[2, k] = at(min(float(t[k]) - start, end))[:3]
+        out[0, t <= 0.0] = self._start
+        out[0, t >= self.duration] = self._goal
+        return out[0], out[1], out[2]
 
 
 def waypoint_velocities(way: FloatArray, limits: JointLimits, scale: float) -> FloatArray:

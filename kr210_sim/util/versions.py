@@ -31,9 +31,8 @@ def versions() -> dict[str, str]:
         "mujoco": mujoco.__version__,
     }
     out["ruckig"] = getattr(ruckig, "__version__", "unknown")
-    for name in ("ompl", "toppra"):  # the planner around obstacles and its bound
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "unknown"
+    try:  # the planner around obstacles
+        out["ompl"] = metadata.version("ompl")
+    except metadata.PackageNotFoundError:
+        out["ompl"] = "unknown"
     return out
