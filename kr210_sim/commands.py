@@ -205,7 +205,7 @@ def view(args: argparse.Namespace) -> int:
             raise ConfigError(
                 "--joints poses the arm by hand; --replay plays a recording: drop one"
             )
-        run_joints(settings)
+        run_joints(settings, scene=args.scene, cell_file=args.cell)
         return 0
     if args.replay is not None:
         return _view_replay(args, settings)

@@ -132,11 +132,16 @@ def check_outputs(
 def refuse_unservable(model: mujoco.MjModel) -> None:
     """Refuse a cell (another than the committed one) none of whose slots can be served.
 
+    The slots are planned in turn until one can be served (usually the first: a cycle's
+    planning); only a cell that serves none is checked whole, for the table.
+
     Raises:
         UnservableCellError: With the check's table (see :mod:`kr210_sim.plan.cellcheck`).
     """
-    from kr210_sim.plan.cellcheck import check_cell
+    from kr210_sim.plan.cellcheck import check_cell, first_served_slot
 
+    if first_served_slot(model):
+        return
     result = check_cell(model)
     if not result.any_slot:
         raise UnservableCellError(

@@ -10,7 +10,7 @@ from kr210_sim.cell.load import compile_cell, model_for
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.cli import main
 from kr210_sim.errors import UnservableCellError
-from kr210_sim.plan.cellcheck import check_cell
+from kr210_sim.plan.cellcheck import check_cell, first_served_slot
 from kr210_sim.sim.runner import RunConfig, Runner
 
 CELLS = PUBLISHED_CELL.parent
@@ -47,6 +47,13 @@ def test_run_refuses_a_cell_no_slot_of_which_can_be_served(
     assert err.strip().splitlines()[-1] == (
         "kr210_sim: error: cell unreachable: no slot can be served (see the table above)"
     )
+
+
+def test_run_plans_slots_only_until_one_is_served() -> None:
+    """What ``run`` needs before it starts (it ran the whole check: every slot and drop spot,
+    seconds in an obstacle cell): the column cell's slot 1 serves, the unreachable cell none."""
+    assert first_served_slot(model_for(cell=CELLS / "column.toml")) == 1
+    assert first_served_slot(model_for(cell=CELLS / "unreachable.toml")) == 0
 
 
 def test_view_refuses_it_too(tmp_path: Path) -> None:

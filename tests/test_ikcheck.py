@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.load import load_model
+from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
 from kr210_sim.eval.ikcheck import cell_cases, fixed_cases, random_cases, run_check
 from kr210_sim.plan.planner import Planner, grasp_depth
@@ -212,3 +213,25 @@ def test_an_absurd_number_of_cases_is_one_line(
         err
         == "kr210_sim: error: cases must be a whole number from 0 to 1,000,000, got 1000000000\n"
     )
+
+
+def _ready_cell(tmp_path: Path) -> Path:
+    """The published cell file with a ready pose of its own, ``[robot] ready_q``."""
+    text = PUBLISHED_CELL.read_text().replace(
+        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
+    )
+    path = tmp_path / "ready.toml"
+    path.write_text(text)
+    return path
+
+
+def test_the_cell_cases_start_from_the_cells_ready_pose(tmp_path: Path) -> None:
+    """A cell that sets ``[robot] ready_q``: every drop-spot case starts from it (it took the
+    motion settings' default), and so does every slot's approach."""
+    kin = kinematics.Kinematics(load_robot())
+    cases = cell_cases(kin, model_for(cell=_ready_cell(tmp_path)))
+    ready = np.radians([40, -15, 20, 0, -5, 0])
+    drops = [c for c in cases if c.name.startswith("drop spot")]
+    standoffs = [c for c in cases if c.name.endswith("standoff")]
+    assert len(drops) == 9 and len(standoffs) == 9
+    assert all(np.allclose(c.q_ref, ready) for c in (*drops, *standoffs))

@@ -14,6 +14,7 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import kr210_sim.envs  # noqa: E402
+from kr210_sim.cell.toml import PUBLISHED_CELL  # noqa: E402
 from kr210_sim.envs.pick_place import POLICY_DT, PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
 from kr210_sim.score.scoring import in_bin  # noqa: E402
@@ -260,3 +261,24 @@ def test_rgb_array_rendering() -> None:
     assert frame is not None and frame.shape == (128, 160, 3) and frame.dtype == np.uint8
     assert frame.std() > 10  # a picture, not a blank
     assert PickPlaceEnv().render() is None
+
+
+def _ready_cell(tmp_path: Path) -> Path:
+    """The published cell file with a ready pose of its own, ``[robot] ready_q``."""
+    text = PUBLISHED_CELL.read_text().replace(
+        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
+    )
+    path = tmp_path / "ready.toml"
+    path.write_text(text)
+    return path
+
+
+def test_the_episode_starts_from_the_cells_ready_pose(tmp_path: Path) -> None:
+    """A cell that sets ``[robot] ready_q``: the arm starts there and the commanded joint state
+    is that pose (it was the motion settings' default, which the arm then swung to)."""
+    env = PickPlaceEnv(scene=_ready_cell(tmp_path))
+    env.reset(seed=0)
+    ready = np.radians([40, -15, 20, 0, -5, 0])
+    assert np.allclose(env.ready_q, ready) and np.allclose(env.q_cmd, ready)
+    assert np.allclose(env.cell.q, ready, atol=1e-3)
+    env.close()

@@ -212,6 +212,16 @@ def ready_q_of(model: mujoco.MjModel) -> FloatArray | None:
     return np.radians(np.array(model.numeric_data[adr : adr + 6], dtype=np.float64))
 
 
+def ready_pose(model: mujoco.MjModel) -> FloatArray:
+    """The ready pose of a cell model [rad]: the cell's own (``[robot] ready_q``) when it sets
+    one, else the motion settings' default, as configured (a planner with a collision checker
+    uses the clear pose nearest it when it collides, :class:`~kr210_sim.plan.planner.Planner`)."""
+    from kr210_sim.cell.spec import MotionConfig
+
+    q = ready_q_of(model)
+    return q if q is not None else np.array(MotionConfig().ready_q, dtype=np.float64)
+
+
 #: Longest cell name shown in tables and reports [characters] (cell files allow no longer).
 MAX_NAME = 64
 

@@ -189,7 +189,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self._seed = 0  # the last seed reset was given
         self.runner = self._runner(RunConfig(cycles=1), None)
         self.cell: Cell = self.runner.cell
-        self.ready_q = np.asarray(self.motion.ready_q, dtype=np.float64)
+        #: Where the arm waits and every episode starts: the runner's (the cell's own ready
+        #: pose when it sets one, moved clear of the cell when it collides).
+        self.ready_q = self.runner.planner.ready_q.copy()
         self.q_lower, self.q_upper = self.robot.q_lower.copy(), self.robot.q_upper.copy()
         self.qd_max = self.robot.qd_max.copy()
         lo, hi = self.model.actuator_ctrlrange[self.cell.handles.grip_act]

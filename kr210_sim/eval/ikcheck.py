@@ -27,7 +27,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +46,9 @@ from kr210_sim.robot.ik_guard import (
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.util.progress import ProgressLine, bar
+
+if TYPE_CHECKING:
+    import mujoco
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -78,18 +81,21 @@ class Case:
     q_ref: FloatArray
 
 
-def cell_cases(kin: Kinematics) -> list[Case]:
-    """The gripper poses of every slot's cycle plan in the published cell (the nominal target,
-    from the ready pose; its drop pose is left to the drop-spot cases) and the drop pose of
-    every drop spot, as the planner of ``kin``'s robot computes them."""
-    from kr210_sim.cell.layout import CellLayout
+def cell_cases(kin: Kinematics, model: mujoco.MjModel | None = None) -> list[Case]:
+    """The gripper poses of every slot's cycle plan in the published cell (or ``model``'s; the
+    nominal target, from the cell's ready pose; its drop pose is left to the drop-spot cases)
+    and the drop pose of every drop spot, as the planner of ``kin``'s robot computes them."""
+    from kr210_sim.cell.layout import CellLayout, ready_pose
     from kr210_sim.cell.load import load_model
     from kr210_sim.cell.spec import MotionConfig
     from kr210_sim.plan.planner import Planner
     from kr210_sim.sim.runner import RunConfig, sample_target
 
-    layout = CellLayout.from_model(load_model())
-    planner = Planner(kin.robot, MotionConfig())  # the poses need no collision checks
+    model = model if model is not None else load_model()
+    layout = CellLayout.from_model(model)
+    ready = tuple(float(v) for v in ready_pose(model))
+    # the poses need no collision checks
+    planner = Planner(kin.robot, MotionConfig(ready_q=ready))  # type: ignore[arg-type]
     rng = np.random.default_rng(0)  # unused: the nominal target draws nothing
     cases: list[Case] = []
     for slot in range(1, layout.n_slots + 1):

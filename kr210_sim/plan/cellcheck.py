@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import partial
 
@@ -192,32 +192,58 @@ def _landing(model: mujoco.MjModel, layout: CellLayout, spot: int, row: CheckRow
     return dataclasses.replace(row, path=False, detail=blocker) if blocker else row
 
 
-def check_cell(
-    model: mujoco.MjModel,
-    robot: RobotDescription | None = None,
-    motion: MotionConfig | None = None,
-) -> CellCheck:
-    """Plan every slot and drop spot of the cell ``model`` simulates (see the module doc)."""
+def _slot_rows(
+    model: mujoco.MjModel, robot: RobotDescription | None, motion: MotionConfig | None
+) -> tuple[Planner, CellLayout, Iterator[CheckRow]]:
+    """The planner and layout of a check, and its slot rows, planned one by one as they are
+    asked for."""
     layout = CellLayout.from_model(model)
     robot = robot or load_robot()
     planner = Planner(
         robot, motion or MotionConfig(), None, CollisionChecker(model, Kinematics(robot))
     )
     t = layout.target
-    ready = planner.ready_q
     first = drop_spot_index(0, len(layout.drop_spots)) + 1  # a run's first cycle's
 
     def slot_plan(n: int) -> CyclePlan:
         p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
-        return planner.plan_cycle(ready, p, t, layout.drop_spots)
+        return planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots)
 
-    def drop_plan(n: int) -> CyclePlan:  # the place part of a cycle, from the ready pose
-        return planner.plan_place(ready, t, layout.drop_spots, placed=n - 1)
-
-    slots = tuple(
+    rows = (
         _row(f"slot {n}", first, planner, partial(slot_plan, n))
         for n in range(1, layout.n_slots + 1)
     )
+    return planner, layout, rows
+
+
+def first_served_slot(
+    model: mujoco.MjModel,
+    robot: RobotDescription | None = None,
+    motion: MotionConfig | None = None,
+) -> int:
+    """The first slot (1-based) of the cell ``model`` whose cycle can be planned clear (as
+    :func:`check_cell` plans it), or 0 when none can: what ``run`` and ``view`` need to know
+    before they start, without planning every slot and drop spot."""
+    _, _, rows = _slot_rows(model, robot, motion)
+    for n, row in enumerate(rows, start=1):
+        if row.served:
+            return n
+    return 0
+
+
+def check_cell(
+    model: mujoco.MjModel,
+    robot: RobotDescription | None = None,
+    motion: MotionConfig | None = None,
+) -> CellCheck:
+    """Plan every slot and drop spot of the cell ``model`` simulates (see the module doc)."""
+    planner, layout, rows = _slot_rows(model, robot, motion)
+    slots = tuple(rows)
+    t = layout.target
+
+    def drop_plan(n: int) -> CyclePlan:  # the place part of a cycle, from the ready pose
+        return planner.plan_place(planner.ready_q, t, layout.drop_spots, placed=n - 1)
+
     drops = tuple(
         _landing(model, layout, n, _row(f"drop {n}", n, planner, partial(drop_plan, n)))
         for n in range(1, len(layout.drop_spots) + 1)

@@ -23,12 +23,12 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.load import load_model
 from kr210_sim.errors import ConfigError
 from kr210_sim.media.video import overlay_lines
 from kr210_sim.robot.kinematics import Kinematics
@@ -288,20 +288,26 @@ class JointPose:
         self.viewer.publish(self.cell.data, self.lines, q=self.q)
 
 
-def run_joints(settings: ViewerSettings, out: TextIO | None = None) -> None:
-    """Joint mode: show the arm posed by the panel's sliders until Ctrl-C or the viewer closes."""
-    from kr210_sim.cell.spec import MotionConfig
-    from kr210_sim.plan.planner import Planner
+def run_joints(
+    settings: ViewerSettings,
+    out: TextIO | None = None,
+    scene: Path | None = None,
+    cell_file: Path | None = None,
+) -> None:
+    """Joint mode: show the arm posed by the panel's sliders until Ctrl-C or the viewer closes,
+    in the cell of ``scene`` or ``cell_file`` (default: the published one), starting from its
+    ready pose (:func:`~kr210_sim.cell.layout.ready_pose`)."""
+    from kr210_sim.cell.layout import ready_pose
+    from kr210_sim.cell.load import model_for
     from kr210_sim.robot.description import load_robot
 
     out = out or sys.stdout
     robot = load_robot()
-    cell = Cell(load_model())
-    planner = Planner(robot, MotionConfig())
+    cell = Cell(model_for(scene, cell_file))
     limits = (robot.q_lower.tolist(), robot.q_upper.tolist())
     viewer = LiveViewer(cell.model, settings, joint_limits=limits)
     try:
-        pose = JointPose(viewer, cell, planner.kinematics, planner.ready_q)
+        pose = JointPose(viewer, cell, Kinematics(robot), ready_pose(cell.model))
         announce(viewer, settings, out)
         hold_open(pose.tick)
     finally:
