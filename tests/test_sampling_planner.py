@@ -85,3 +85,28 @@ def test_a_goal_inside_the_column_is_no_path_with_what_blocks(
     sampler.checker.hold(None, None)
     with pytest.raises(NoPathError, match=r"the goal of the move collides: .* against obstacle_1"):
         sampler.plan(ready, goal)
+
+
+def test_a_carry_from_a_twisted_wrist_is_searched_from_where_it_starts() -> None:
+    """The column moved in front of the middle slot (2.0, 0.0): slot 5 is picked 45 deg off the
+    radial, the wrist rolled by over 80 deg, beyond the held search's 45 deg; the search space takes
+    in the move's ends (OMPL found "no valid start state" and the cycle was no_path), and the
+    carry around the column keeps the part within the tilt bound."""
+    from kr210_sim.cell.layout import CellLayout
+    from kr210_sim.cell.load import compile_cell
+    from kr210_sim.cell.toml import parse_cell
+    from kr210_sim.plan.collide import HOLD_TILT_DEG, check_samples
+
+    text = (PUBLISHED_CELL.parent / "column.toml").read_text()
+    model = compile_cell(parse_cell(text.replace("[1.8, 1.0, 1.5]", "[2.0, 0.0, 1.5]")))
+    layout = CellLayout.from_model(model)
+    planner = Planner(load_robot(), MotionConfig(), None, CollisionChecker(model, committed()))
+    t = layout.target
+    slot = layout.slots[4] + (0.0, 0.0, t.length / 2)
+    plan = planner.plan_cycle(planner.ready_q, slot, t, layout.drop_spots)
+    carry = plan.moves[4]
+    assert carry.phase == "carry" and carry.planner == "ompl"
+    assert abs(carry.trajectory.q_start[3]) > math.radians(80)
+    assert math.degrees(abs(plan.heading_offset)) == pytest.approx(45.0)
+    up = kinematics.forward(check_samples(carry.trajectory, committed()))[:, 2, 2]
+    assert up.min() > math.cos(math.radians(HOLD_TILT_DEG))

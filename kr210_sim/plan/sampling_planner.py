@@ -43,7 +43,7 @@ FloatArray = npt.NDArray[np.float64]
 #: Checking step of the search, in the weighted distance [m] (the result is checked again at
 #: 1 cm before the arm may move).
 COARSE_STEP = 0.16
-#: Largest |q4| searched while holding a part [rad].
+#: Largest |q4| searched while holding a part [rad] (more when a move's own end lies beyond).
 HELD_Q4 = math.pi / 4
 #: RRTConnect's longest extension, in the weighted distance [m].
 RRT_RANGE = 2.0
@@ -222,6 +222,10 @@ class SamplingPlanner:
         _seed(plan_seed(self.seed, qs, qg, held))
         M, lo, hi, w = self._coordinates(held)
         M_inv = np.linalg.inv(M)
+        xs, xg = M_inv @ qs, M_inv @ qg
+        # the held bounds (wrist roll, tilt) grow to take in the move's own ends: a part picked
+        # with the wrist twisted (a pick off the radial) starts outside them
+        lo, hi = np.minimum(lo, np.minimum(xs, xg)), np.maximum(hi, np.maximum(xs, xg))
         space = self._space(lo, hi, w)
         ss = og.SimpleSetup(space)
         x = np.empty(6)
@@ -249,7 +253,6 @@ class SamplingPlanner:
         si = ss.getSpaceInformation()
         si.setStateValidityCheckingResolution(step / space.getMaximumExtent())
         start, goal = space.allocState(), space.allocState()
-        xs, xg = M_inv @ qs, M_inv @ qg
         for j in range(6):
             start[j][0] = float(np.clip(xs[j], lo[j], hi[j]))
             goal[j][0] = float(np.clip(xg[j], lo[j], hi[j]))
