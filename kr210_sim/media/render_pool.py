@@ -130,7 +130,7 @@ class FrameRenderer:
     def __init__(
         self, model: mujoco.MjModel, settings: VideoSettings, target_geoms: IntArray
     ) -> None:
-        # fast and medium draw the robot's lighter meshes (the close-ups of high keep the fine)
+        # fast and medium draw the video's level of detail (the close-ups of high the fine one)
         self.model = model if settings.quality == "high" else draw_level(model)
         model = self.model
         self.geoms = np.asarray(target_geoms, dtype=np.int32)

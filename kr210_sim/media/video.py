@@ -26,7 +26,8 @@ from kr210_sim.errors import ConfigError, RenderError, one_line
 from kr210_sim.util.outputs import commit, discard, temp_beside
 
 #: Quality presets: (shadows, shadow map size [px], MSAA samples). fast and medium also draw
-#: the robot's lighter meshes (:func:`kr210_sim.media.render.draw_level`). medium's 512 px map
+#: the video's level of detail (:func:`kr210_sim.media.render.draw_level`: lighter meshes,
+#: textures as their mean colour, coarser built-in shapes). medium's 512 px map
 #: looks the same at 640x480 (soft shadows) and costs 4 ms a frame less than 1024 in software.
 QUALITY: dict[str, tuple[bool, int, int]] = {
     "fast": (False, 1024, 0),
