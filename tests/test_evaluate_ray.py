@@ -35,6 +35,10 @@ pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
 #: The evaluation every test compares: few episodes, randomised cells.
 CONFIG = {"episodes": 12, "seed": 4, "randomize": True}
+#: Episodes of the evaluations stopped by a signal: on two workers, tasks of 6 episodes, so the
+#: first records come after 6 (with 200, tasks of 16: 5-10 s more a test) and 42 are still to
+#: run when the signal comes.
+STOPPED = "48"
 
 
 def _text(report: Path) -> str:
@@ -132,7 +136,7 @@ def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
     cluster: Any, tmp_path: Path
 ) -> None:
     report = tmp_path / "e.json"
-    argv = ["--backend", "ray", "--address", cluster.address, "--episodes", "200"]
+    argv = ["--backend", "ray", "--address", cluster.address, "--episodes", STOPPED]
     # the driver runs in its own process: it reads Ray's loopback setting from the environment
     env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
     with evaluate_process([*argv, "--report", str(report)], env=env) as proc:
@@ -150,7 +154,7 @@ def test_sigterm_on_a_driver_leaves_no_task_running_on_the_cluster(
 
 def test_sigterm_on_a_driver_that_started_ray_leaves_nothing_behind(tmp_path: Path) -> None:
     report = tmp_path / "e.json"
-    argv = ["--backend", "ray", "--workers", "2", "--episodes", "200"]
+    argv = ["--backend", "ray", "--workers", "2", "--episodes", STOPPED]
     with evaluate_process([*argv, "--report", str(report)], start_new_session=True) as proc:
         wait_for_records(tmp_path / "e.episodes.jsonl", 2)
         started = descendants(proc.pid)
