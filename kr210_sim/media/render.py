@@ -103,7 +103,8 @@ DRAW_SUFFIX = "_draw"
 #: along it, quads along a box face's side), against MuJoCo's defaults 28, 16, 4 (the scene's,
 #: kept for stills and ``--quality high``). The stacks and quads only subdivide flat sides for
 #: per-vertex lighting; a frame from the overview or bin camera differs from the fine one in
-#: under 0.3 % of its pixels (the target cylinders' outlines) and costs about 17 % less CPU.
+#: under 0.3 % of its pixels (the target cylinders' outlines) and costs 5-15 % less CPU
+#: (``benchmarks/render_cost.py``: 18.1 -> 16.9 ms in one sitting).
 DRAW_BUILTINS = (20, 2, 2)
 
 
@@ -141,7 +142,8 @@ def flat_textures(model: mujoco.MjModel) -> list[str]:
 
     The floor's texture is a 2 mm speckle (a 256 px texture repeated twice a metre) that the
     mipmaps average to its mean over the few centimetres a 640x480 overview pixel covers;
-    sampling it cost about 13 % of a frame (two passes over most of the picture). Applied to
+    sampling it cost 13-22 % of a frame (two passes over most of the picture; 23.2 -> 18.1 ms
+    in ``benchmarks/render_cost.py``). Applied to
     the model before its renderer is made (the GL context copies the texture ids).
 
     Returns:
