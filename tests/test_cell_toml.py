@@ -118,6 +118,18 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             _with('name = "published"', 'name = "published"\n[robot]\nready_q = [45, 0, 0]'),
             "[robot] ready_q: expected a list of 6 joint angles within +-360 [deg], got [45, 0, 0]",
         ),
+        (  # within +-360 but past the URDF's joint limits: named, with the limits
+            _with(
+                'name = "published"', 'name = "published"\n[robot]\nready_q = [0, 0, 0, 0, 0, 355]'
+            ),
+            "[robot] ready_q: joint_6 = 355 deg is outside its limits [-350, 350] deg",
+        ),
+        (
+            _with(
+                'name = "published"', 'name = "published"\n[robot]\nready_q = [-190, 0, 0, 0, 0, 0]'
+            ),
+            "[robot] ready_q: joint_1 = -190 deg is outside its limits [-185, 185] deg",
+        ),
         (
             _with('name = "published"', 'name = "published"\n[robot]\nready = [0, 0, 0]'),
             "[robot] has an unknown key 'ready' (keys: ready_q)",

@@ -17,6 +17,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from kr210_sim.cell.spec import (
     ROBOT_BASE_HEIGHT,
     ROBOT_BASE_RADIUS,
@@ -29,6 +31,7 @@ from kr210_sim.cell.spec import (
     TargetSpec,
 )
 from kr210_sim.errors import ConfigError
+from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.util.inputs import read_input
 from kr210_sim.util.paths import SCENES_DIR
 
@@ -144,6 +147,27 @@ class _Reader:
 def _is_number(v: Any) -> bool:
     """A finite int or float (not a bool)."""
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _within_joint_limits(path: Path | str, q_deg: tuple[float, ...]) -> None:
+    """Refuse a ready pose (``q_deg`` [deg]) outside the robot's joint limits (its URDF's).
+
+    Raises:
+        ConfigError: Naming the first joint out of its limits, and the limits [deg].
+    """
+    robot = _robot()
+    lo, hi = np.degrees(robot.q_lower), np.degrees(robot.q_upper)
+    for i, v in enumerate(q_deg):
+        if not lo[i] <= v <= hi[i]:
+            raise ConfigError(
+                f"{path}: [robot] ready_q: joint_{i + 1} = {v:g} deg is outside its limits "
+                f"[{lo[i]:g}, {hi[i]:g}] deg"
+            )
+
+
+@functools.cache
+def _robot() -> RobotDescription:
+    return load_robot()
 
 
 def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
@@ -288,6 +312,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             if not ok or max(abs(v) for v in q) > 360.0:
                 rb.fail("ready_q", "a list of 6 joint angles within +-360 [deg]", q)
             ready_q = tuple(float(v) for v in q)
+            _within_joint_limits(path, ready_q)
     sha = hashlib.sha256(text.encode()).hexdigest()
     cell = CellConfig(
         name=name,
