@@ -58,6 +58,17 @@ def states(n: int) -> tuple[Runner, list[mujoco.MjData]]:
     return runner, snaps
 
 
+def _posed(model: mujoco.MjModel, snaps: list[mujoco.MjData]) -> list[mujoco.MjData]:
+    """The states ``snaps`` (their joint positions) in ``model``, forward-computed."""
+    moved = []
+    for d in snaps:
+        m = mujoco.MjData(model)
+        m.qpos[:] = d.qpos
+        mujoco.mj_forward(model, m)
+        moved.append(m)
+    return moved
+
+
 def bare(model: mujoco.MjModel, snaps: list[mujoco.MjData], w: int, h: int, shadows: bool) -> float:
     renderer = make_renderer(model, w, h)
     cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "overview")
@@ -82,13 +93,7 @@ def compare(paths: list[str], snaps: list[mujoco.MjData], rounds: int = 5) -> No
         model = load_model(path)
         model.vis.quality.shadowsize = shadow_size
         model.vis.quality.offsamples = msaa
-        moved = []
-        for d in snaps:
-            m = mujoco.MjData(model)
-            m.qpos[:] = d.qpos
-            mujoco.mj_forward(model, m)
-            moved.append(m)
-        scenes.append((path or "committed scene", model, moved))
+        scenes.append((path or "committed scene", model, _posed(model, snaps)))
     best = [float("inf")] * len(scenes)
     for _ in range(rounds):
         for i, (_, model, moved) in enumerate(scenes):
@@ -132,13 +137,7 @@ def levels(snaps: list[mujoco.MjData], rounds: int = 5) -> None:
         model.vis.quality.shadowsize = shadow_size
         model.vis.quality.offsamples = msaa
         renderer = make_renderer(model, 640, 480)
-        moved = []
-        for d in snaps:
-            m = mujoco.MjData(model)
-            m.qpos[:] = d.qpos
-            mujoco.mj_forward(model, m)
-            moved.append(m)
-        cases.append((label, renderer, moved, shadow_casters(model)))
+        cases.append((label, renderer, _posed(model, snaps), shadow_casters(model)))
     cam = "overview"
     best = [float("inf")] * len(cases)
     for _ in range(rounds):

@@ -11,6 +11,10 @@ from typing import Any
 import pytest
 
 import kr210_sim  # noqa: F401
+from kr210_sim.cell.toml import PUBLISHED_CELL
+
+#: The ready pose of :func:`ready_cell` [deg].
+READY_Q_DEG = (40, -15, 20, 0, -5, 0)
 
 
 @pytest.fixture
@@ -31,6 +35,19 @@ def ctrl_c_on_call() -> Callable[[Callable[..., Any], int], Callable[..., Any]]:
         return wrapper
 
     return wrap
+
+
+@pytest.fixture
+def ready_cell(tmp_path: Path) -> Path:
+    """The published cell file with a ready pose of its own, ``[robot] ready_q``
+    (:data:`READY_Q_DEG`)."""
+    ready = ", ".join(str(v) for v in READY_Q_DEG)
+    text = PUBLISHED_CELL.read_text().replace(
+        'name = "published"', f'name = "ready"\n[robot]\nready_q = [{ready}]'
+    )
+    path = tmp_path / "ready.toml"
+    path.write_text(text)
+    return path
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,6 @@ import pytest
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.cell.spec import MotionConfig
-from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
 from kr210_sim.eval.ikcheck import cell_cases, fixed_cases, random_cases, run_check
 from kr210_sim.plan.planner import Planner, grasp_depth
@@ -215,21 +214,11 @@ def test_an_absurd_number_of_cases_is_one_line(
     )
 
 
-def _ready_cell(tmp_path: Path) -> Path:
-    """The published cell file with a ready pose of its own, ``[robot] ready_q``."""
-    text = PUBLISHED_CELL.read_text().replace(
-        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
-    )
-    path = tmp_path / "ready.toml"
-    path.write_text(text)
-    return path
-
-
-def test_the_cell_cases_start_from_the_cells_ready_pose(tmp_path: Path) -> None:
+def test_the_cell_cases_start_from_the_cells_ready_pose(ready_cell: Path) -> None:
     """A cell that sets ``[robot] ready_q``: every drop-spot case starts from it (it took the
     motion settings' default), and so does every slot's approach."""
     kin = kinematics.Kinematics(load_robot())
-    cases = cell_cases(kin, model_for(cell=_ready_cell(tmp_path)))
+    cases = cell_cases(kin, model_for(cell=ready_cell))
     ready = np.radians([40, -15, 20, 0, -5, 0])
     drops = [c for c in cases if c.name.startswith("drop spot")]
     standoffs = [c for c in cases if c.name.endswith("standoff")]

@@ -11,7 +11,6 @@ import numpy as np
 from kr210_sim.cell.layout import CellLayout, ready_pose
 from kr210_sim.cell.load import model_for
 from kr210_sim.cell.spec import MotionConfig
-from kr210_sim.cell.toml import PUBLISHED_CELL
 from kr210_sim.cli import main
 from kr210_sim.score.scoring import in_bin
 from kr210_sim.sim.runner import RunConfig, Runner
@@ -62,19 +61,9 @@ def test_a_scenes_cell_name_is_shown_escaped_and_bounded() -> None:
     assert name.startswith("two\\nlines") and len(name) == 64 and name.endswith("...")
 
 
-def _ready_cell(tmp_path: Path) -> Path:
-    """The published cell file with a ready pose of its own, ``[robot] ready_q``."""
-    text = PUBLISHED_CELL.read_text().replace(
-        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
-    )
-    path = tmp_path / "ready.toml"
-    path.write_text(text)
-    return path
-
-
-def test_the_ready_pose_is_the_cells_own_else_the_default(tmp_path: Path) -> None:
+def test_the_ready_pose_is_the_cells_own_else_the_default(ready_cell: Path) -> None:
     assert np.array_equal(ready_pose(model_for()), MotionConfig().ready_q)
-    q = ready_pose(model_for(cell=_ready_cell(tmp_path)))
+    q = ready_pose(model_for(cell=ready_cell))
     assert np.allclose(np.degrees(q), [40, -15, 20, 0, -5, 0])
 
 

@@ -14,7 +14,6 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import kr210_sim.envs  # noqa: E402
-from kr210_sim.cell.toml import PUBLISHED_CELL  # noqa: E402
 from kr210_sim.envs.pick_place import POLICY_DT, PickPlaceEnv  # noqa: E402
 from kr210_sim.errors import ActionError, ConfigError  # noqa: E402
 from kr210_sim.score.scoring import in_bin  # noqa: E402
@@ -263,20 +262,10 @@ def test_rgb_array_rendering() -> None:
     assert PickPlaceEnv().render() is None
 
 
-def _ready_cell(tmp_path: Path) -> Path:
-    """The published cell file with a ready pose of its own, ``[robot] ready_q``."""
-    text = PUBLISHED_CELL.read_text().replace(
-        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
-    )
-    path = tmp_path / "ready.toml"
-    path.write_text(text)
-    return path
-
-
-def test_the_episode_starts_from_the_cells_ready_pose(tmp_path: Path) -> None:
+def test_the_episode_starts_from_the_cells_ready_pose(ready_cell: Path) -> None:
     """A cell that sets ``[robot] ready_q``: the arm starts there and the commanded joint state
     is that pose (it was the motion settings' default, which the arm then swung to)."""
-    env = PickPlaceEnv(scene=_ready_cell(tmp_path))
+    env = PickPlaceEnv(scene=ready_cell)
     env.reset(seed=0)
     ready = np.radians([40, -15, 20, 0, -5, 0])
     assert np.allclose(env.ready_q, ready) and np.allclose(env.q_cmd, ready)

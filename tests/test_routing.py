@@ -4,6 +4,7 @@ stay straight; the duration of every move against its lower bound."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -63,11 +64,8 @@ def test_a_blocked_ready_pose_gives_way_to_the_nearest_clear_one() -> None:
     assert np.allclose(plan.approach_ptp.trajectory.q_start, planner.ready_q)
 
 
-def test_the_cell_files_ready_pose_is_used() -> None:
-    text = PUBLISHED_CELL.read_text().replace(
-        'name = "published"', 'name = "ready"\n[robot]\nready_q = [40, -15, 20, 0, -5, 0]'
-    )
-    planner = _planner(compile_cell(parse_cell(text)))
+def test_the_cell_files_ready_pose_is_used(ready_cell: Path) -> None:
+    planner = _planner(compile_cell(parse_cell(ready_cell.read_text())))
     assert np.allclose(np.degrees(planner.ready_q), [40, -15, 20, 0, -5, 0])
     assert planner.ready_note == ""
 
