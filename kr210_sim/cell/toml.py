@@ -31,7 +31,7 @@ from kr210_sim.cell.spec import (
     TargetSpec,
 )
 from kr210_sim.errors import ConfigError
-from kr210_sim.robot.description import RobotDescription, load_robot
+from kr210_sim.robot.description import load_robot
 from kr210_sim.util.inputs import read_input
 from kr210_sim.util.paths import SCENES_DIR
 
@@ -155,7 +155,7 @@ def _within_joint_limits(path: Path | str, q_deg: tuple[float, ...]) -> None:
     Raises:
         ConfigError: Naming the first joint out of its limits, and the limits [deg].
     """
-    robot = _robot()
+    robot = load_robot()  # cached per path
     lo, hi = np.degrees(robot.q_lower), np.degrees(robot.q_upper)
     for i, v in enumerate(q_deg):
         if not lo[i] <= v <= hi[i]:
@@ -163,11 +163,6 @@ def _within_joint_limits(path: Path | str, q_deg: tuple[float, ...]) -> None:
                 f"{path}: [robot] ready_q: joint_{i + 1} = {v:g} deg is outside its limits "
                 f"[{lo[i]:g}, {hi[i]:g}] deg"
             )
-
-
-@functools.cache
-def _robot() -> RobotDescription:
-    return load_robot()
 
 
 def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
