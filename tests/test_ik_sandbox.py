@@ -364,3 +364,110 @@ def test_limits_are_checked() -> None:
         Limits(call_timeout=0)
     with pytest.raises(ConfigError, match="memory_mb must be at least 256, got 100"):
         Limits(memory_mb=100)
+
+
+def test_huge_texts_and_frames_are_unusable_answers_not_crashes(tmp_path: Path) -> None:
+    """An exception with a 2 MB message, a 1.2 MB string, and a frame of 3 MB written straight to
+    the answer pipe are each an answer the guard can name, and the process answers on."""
+    spec = _file(
+        tmp_path,
+        "big",
+        """
+        import os, struct, sys
+        def solve(T, q):
+            if q[0] > 0.5:
+                raise ValueError("no solution: " + "x" * 2_000_000)
+            if q[0] > 0.0:
+                return "q=" + "0," * 600_000
+            if q[0] > -0.5:
+                data = b"[" + b"0," * 1_500_000 + b"0]"
+                os.write(int(sys.argv[3]), struct.pack("!I", len(data)) + data)
+                return None  # this one's own answer is never read: the call has had one
+            return list(q)
+        """,
+    )
+    T = kinematics.forward(Q)
+    with IkSandbox(spec) as box:
+        raised = _raw(box, T, 0.7)
+        assert isinstance(raised, Exception) and type(raised).__name__ == "ValueError"
+        assert str(raised).startswith("no solution: xxx")
+        assert str(raised).endswith(" [... 1,998,013 more characters]")
+        assert len(str(raised)) < 2_100
+        text = assess(kinematics.committed(), T, Q, _raw(box, T, 0.3)).problem
+        assert text.startswith("returned str, not six numbers (TypeError: could not convert")
+        assert len(text) < 2_200
+        problem = assess(kinematics.committed(), T, Q, _raw(box, T, -0.3)).problem
+        assert problem == (
+            "returned an answer of 3,000,003 bytes, not six numbers (TypeError: a message may "
+            "hold at most 1,048,576 bytes; six angles take about 150)"
+        )
+        # The frame's own call's answer (None) arrives after it: dropped as an earlier call's.
+        q = Q.copy()
+        q[0] = -0.7
+        np.testing.assert_array_equal(box(T, q), q)
+        assert box.starts == 1 and box.faults == []
+
+
+def test_a_module_spec_imports_where_it_does_here(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``my_ik:solve`` found on this process's path (the folder ``python -m`` is run from) is
+    found by the sandboxed process too, which starts elsewhere (its scratch folder)."""
+    from kr210_sim.robot.user_ik import SpecFiles, spec_files
+
+    folder = tmp_path / "work"
+    folder.mkdir()
+    (folder / "my_ik.py").write_text(EXAMPLE.read_text())
+    monkeypatch.syspath_prepend(str(folder))
+    files = spec_files("my_ik:solve")
+    assert files.readable == ((folder / "my_ik.py").resolve(),)
+    assert files.search == (folder.resolve(),)
+    assert spec_files("kr210_sim.robot.kinematics:nearest") == SpecFiles((), ())  # ours
+    assert spec_files("numpy:zeros").readable == ()  # installed: nothing of the user's
+    assert spec_files(f"{EXAMPLE}:solve").readable == (EXAMPLE.parent,)
+    T = kinematics.forward(Q)
+    with IkSandbox("my_ik:solve") as box:
+        np.testing.assert_allclose(box(T, Q), Q, atol=1e-9)
+        assert box.scratch != folder
+
+
+def test_a_confinement_starts_and_ends_the_process(tmp_path: Path) -> None:
+    """The sandbox hands its process to a Confinement as a Launch (the user's files it reads, its
+    scratch folder) and has the same confinement end it."""
+    from kr210_sim.robot.confine import Launch, Unconfined, popen
+
+    class Wrapped(Unconfined):
+        """Runs the command under /usr/bin/env, as a jail wraps it, and keeps what it saw."""
+
+        name = "env"
+
+        def __init__(self) -> None:
+            self.launches: list[Launch] = []
+            self.ended: list[int] = []
+
+        def popen(self, launch: Launch) -> subprocess.Popen[bytes]:
+            self.launches.append(launch)
+            return popen(launch, ("/usr/bin/env", "KR210_WRAPPED=1", *launch.argv))
+
+        def end(self, proc: subprocess.Popen[bytes]) -> None:
+            self.ended.append(proc.pid)
+            super().end(proc)
+
+    spec = _file(
+        tmp_path,
+        "wrapped",
+        "import os\ndef solve(T, q):\n    return list(q) if os.environ['KR210_WRAPPED'] else 0\n",
+    )
+    jail = Wrapped()
+    box = IkSandbox(spec, confinement=jail, scratch=tmp_path / "s")
+    np.testing.assert_array_equal(box(kinematics.forward(Q), Q), Q)
+    (launch,) = jail.launches
+    pid = box._proc.pid if box._proc else -1
+    assert launch.readable == (tmp_path.resolve(),)
+    assert launch.scratch == (tmp_path / "s").resolve()
+    assert launch.argv[3] == "kr210_sim.robot.ik_child"
+    box.close()
+    assert jail.ended == [pid] and _gone(pid)
+    root = tmp_path / "only_this.py"
+    root.write_text("")
+    assert IkSandbox(spec, root=root).readable == (root.resolve(),)

@@ -13,7 +13,6 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import signal
-import sys
 from collections import deque
 from collections.abc import Iterable, Iterator
 from multiprocessing.connection import Connection, wait
@@ -23,6 +22,7 @@ from typing import Any
 
 from kr210_sim.errors import Kr210SimError
 from kr210_sim.eval import episode
+from kr210_sim.util.processes import die_with_parent
 
 #: Episodes queued per worker process (one running, one waiting in its pipe).
 QUEUED_PER_WORKER = 2
@@ -39,21 +39,6 @@ def _died(index: int) -> EpisodeError:
     )
 
 
-def _die_with_parent(parent: int) -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (no-op elsewhere)."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return
-    if os.getppid() != parent:  # the parent died before prctl
-        os._exit(1)
-
-
 def _worker_main(
     conn: Connection,
     parent: int,
@@ -65,7 +50,7 @@ def _worker_main(
     """A worker process: run the episodes the driver sends, reply with their records."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    _die_with_parent(parent)
+    die_with_parent(parent)
     try:
         episode.load_pristine(scene)
         while (job := conn.recv()) is not None:

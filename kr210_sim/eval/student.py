@@ -26,13 +26,14 @@ from typing import Any
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.robot.description import load_robot
-from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop, die_with_parent
+from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import run_session
 from kr210_sim.util.outputs import write_json_atomic
+from kr210_sim.util.processes import die_with_parent
 
 #: The verdicts, best first (the leaderboard's order).
 VERDICTS = ("pass", "fail", "timeout", "crashed", "error")

@@ -1,12 +1,15 @@
 """A user's IK function in a process of its own: a time limit per call, a memory limit, a scratch
 folder, its output captured, and nothing left running afterwards.
 
-:class:`IkSandbox` starts ``python -m kr210_sim.robot.ik_sandbox`` (:func:`serve`), which sets its
-limits, imports the SPEC's module (with :func:`~kr210_sim.robot.user_ik.load_ik`, so a bad SPEC
-gives the same one-line message) and then answers ``solve(T, q_ref)`` calls sent over a pipe.
-The sandbox is callable with the same contract, so ``UserIk(spec, sandbox)`` plans and checks
-like any user IK: an answer is judged by our forward kinematics in *this* process, where the
-user's code cannot reach.
+:class:`IkSandbox` describes the process (:class:`~kr210_sim.robot.confine.Launch`: ``python -m
+kr210_sim.robot.ik_child``, its environment, scratch folder, pipes and the user's files it reads)
+and has a :class:`~kr210_sim.robot.confine.Confinement` start it (:class:`~kr210_sim.robot.confine.
+Unconfined` by default). That process (:mod:`kr210_sim.robot.ik_child`) sets its limits, imports
+the SPEC's module (with :func:`~kr210_sim.robot.user_ik.load_ik`, so a bad SPEC gives the same
+one-line message) and then answers ``solve(T, q_ref)`` calls sent over a pipe
+(:mod:`kr210_sim.robot.ik_wire`). The sandbox is callable with the same contract, so
+``UserIk(spec, sandbox)`` plans and checks like any user IK: an answer is judged by our forward
+kinematics in *this* process, where the user's code cannot reach.
 
 What the user's process gets:
 
@@ -16,17 +19,20 @@ What the user's process gets:
 * ``RLIMIT_AS`` (``memory_mb``), ``RLIMIT_FSIZE`` (:data:`FILE_LIMIT_MB`), no core dumps;
 * a scratch folder as its working folder, ``HOME`` and ``TMPDIR``; stdin from ``/dev/null``;
   ``PYTHONDONTWRITEBYTECODE`` (no ``__pycache__`` beside the user's file); one BLAS thread;
+* a module SPEC (``my_ik:solve``) finds its module where this process finds it: the folder it
+  was found in comes first on the process's ``sys.path``;
 * with ``capture``, its stdout and stderr read into a bounded buffer (:class:`Captured`: the
   first and last :data:`KEPT_BYTES` / 2 bytes and the total count).
 
 What a fault becomes: a call with no answer within ``call_timeout`` is an :class:`IkTimeout`
 ("no answer within 2 s"), a process that dies (a signal, ``os._exit``, ``sys.exit``, running out
-of memory) an :class:`IkCrashed` with what killed it. With ``stop=False`` (``run``, ``ik-check``,
-``evaluate --ik-timeout``) both are ordinary exceptions raised by the call, so the pose is judged
-unusable (the cycle is ``ik_failed``), and the next call starts a fresh process. With
-``stop=True`` (``grade``) the first fault raises :class:`SandboxStop` (a ``BaseException`` that the
-IK checks do not catch), which ends the student's grading with verdict ``timeout``, ``crashed`` or
-``error``.
+of memory) an :class:`IkCrashed` with what killed it. An answer larger than a message may be
+(:data:`~kr210_sim.robot.ik_wire.MAX_FRAME`) is an unusable answer that says so, not a fault.
+With ``stop=False`` (``run``, ``ik-check``, ``evaluate --ik-timeout``) both faults are ordinary
+exceptions raised by the call, so the pose is judged unusable (the cycle is ``ik_failed``), and
+the next call starts a fresh process. With ``stop=True`` (``grade``) the first fault raises
+:class:`SandboxStop` (a ``BaseException`` that the IK checks do not catch), which ends the
+student's grading with verdict ``timeout``, ``crashed`` or ``error``.
 """
 
 from __future__ import annotations
@@ -35,10 +41,8 @@ import contextlib
 import json
 import math
 import os
-import select
 import shutil
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
@@ -53,7 +57,9 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, IkSpecError
-from kr210_sim.robot.user_ik import UserIk, load_ik
+from kr210_sim.robot.confine import Confinement, Launch, Unconfined
+from kr210_sim.robot.ik_wire import MAX_FRAME, Oversized, receive, send
+from kr210_sim.robot.user_ik import UserIk, load_ik, spec_files
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -69,9 +75,8 @@ FILE_LIMIT_MB = 64
 LOAD_TIMEOUT = 30.0
 #: Bytes of output kept per process: the first and the last half of it.
 KEPT_BYTES = 32_768
-_HEADER = struct.Struct("!I")
-_MAX_FRAME = 1 << 20
-PR_SET_PDEATHSIG = 1
+#: The user's process: :func:`kr210_sim.robot.ik_child.serve`.
+CHILD_MODULE = "kr210_sim.robot.ik_child"
 
 
 class IkTimeout(Exception):  # named for the message: "raised IkTimeout: no answer within 2 s"
@@ -161,42 +166,6 @@ def _drain(stream: IO[bytes], sink: Captured) -> None:
             sink.add(chunk)
 
 
-def _send(fd: int, message: dict[str, Any]) -> None:
-    data = json.dumps(message).encode()
-    os.write(fd, _HEADER.pack(len(data)) + data)
-
-
-def _read_exact(fd: int, n: int, deadline: float | None) -> bytes | None:
-    """``n`` bytes from ``fd``; None at end of file; TimeoutError past ``deadline``."""
-    buf = bytearray()
-    while len(buf) < n:
-        if deadline is not None:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([fd], [], [], left)[0]:
-                raise TimeoutError
-        chunk = os.read(fd, n - len(buf))
-        if not chunk:
-            return None
-        buf += chunk
-    return bytes(buf)
-
-
-def _receive(fd: int, deadline: float | None) -> dict[str, Any] | None:
-    """One message; None at end of file or for a malformed frame."""
-    head = _read_exact(fd, _HEADER.size, deadline)
-    if head is None:
-        return None
-    (size,) = _HEADER.unpack(head)
-    if size > _MAX_FRAME:
-        return None
-    body = _read_exact(fd, size, deadline)
-    try:
-        message = json.loads(body) if body is not None else None
-    except ValueError:
-        return None
-    return message if isinstance(message, dict) else None
-
-
 def _seconds(s: float) -> str:
     return f"{s:g} s"
 
@@ -227,6 +196,10 @@ class IkSandbox:
             (and a fresh process for the next call).
         deadline: ``time.monotonic()`` after which any wait counts as a timeout (the whole
             student's limit), or None.
+        confinement: What starts and ends the process (:class:`~kr210_sim.robot.confine.
+            Unconfined` when None).
+        root: The user's own files the process reads (a student's submission: a file or a
+            folder); None: the SPEC's (:func:`~kr210_sim.robot.user_ik.spec_files`).
     """
 
     def __init__(
@@ -237,8 +210,14 @@ class IkSandbox:
         capture: bool = False,
         stop: bool = False,
         deadline: float | None = None,
+        confinement: Confinement | None = None,
+        root: Path | None = None,
     ) -> None:
         self.spec = spec
+        self.confinement: Confinement = confinement or Unconfined()
+        files = spec_files(spec)
+        self.readable = (root.resolve(),) if root is not None else files.readable
+        self._search = files.search
         self.limits = limits or Limits()
         self.capture = capture
         self.stop = stop
@@ -254,7 +233,7 @@ class IkSandbox:
         self._proc: subprocess.Popen[bytes] | None = None
         self._fds: tuple[int, int] = (-1, -1)
         self._threads: list[threading.Thread] = []
-        self._finalizer = weakref.finalize(self, IkSandbox._cleanup, {})
+        self._finalizer = weakref.finalize(self, IkSandbox._cleanup, {}, self.confinement)
         # A scratch folder made here goes with the sandbox: on close, collection or exit.
         self._remove_scratch = weakref.finalize(self, shutil.rmtree, self.scratch, True)
         if not self._own_scratch:
@@ -275,8 +254,23 @@ class IkSandbox:
             MUJOCO_GL="disable",
         )
         root = str(Path(__file__).resolve().parents[2])  # this kr210_sim's folder, first
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
+        paths = (root, *map(str, self._search), env.get("PYTHONPATH", ""))
+        env["PYTHONPATH"] = os.pathsep.join(p for p in paths if p)
         return env
+
+    def launch(self, req_r: int, ans_w: int) -> Launch:
+        """The user's process as it is to be started, with the pipe ends it keeps."""
+        limits = {"memory_mb": self.limits.memory_mb, "file_mb": FILE_LIMIT_MB}
+        argv: tuple[str, ...] = (sys.executable, "-B", "-m", CHILD_MODULE, self._child_spec())
+        argv += (str(req_r), str(ans_w), str(os.getpid()), json.dumps(limits))
+        return Launch(
+            argv=argv,
+            env=self._environment(),
+            scratch=self.scratch.resolve(),
+            pass_fds=(req_r, ans_w),
+            readable=self.readable,
+            capture=self.capture,
+        )
 
     def start(self) -> None:
         """Start the process and import the user's module.
@@ -289,21 +283,12 @@ class IkSandbox:
         self.close_process()
         req_r, req_w = os.pipe()
         ans_r, ans_w = os.pipe()
-        limits = {"memory_mb": self.limits.memory_mb, "file_mb": FILE_LIMIT_MB}
-        cmd = [sys.executable, "-B", "-m", "kr210_sim.robot.ik_sandbox", self._child_spec()]
-        cmd += [str(req_r), str(ans_w), str(os.getpid()), json.dumps(limits)]
-        out = subprocess.PIPE if self.capture else None
         try:
-            proc = subprocess.Popen(
-                cmd,
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=out,
-                pass_fds=(req_r, ans_w),
-                cwd=self.scratch,
-                env=self._environment(),
-                start_new_session=True,
-            )
+            proc = self.confinement.popen(self.launch(req_r, ans_w))
+        except BaseException:
+            os.close(req_w)
+            os.close(ans_r)
+            raise
         finally:
             os.close(req_r)
             os.close(ans_w)
@@ -311,7 +296,7 @@ class IkSandbox:
         self.starts += 1
         self._finalizer.detach()
         self._finalizer = weakref.finalize(
-            self, IkSandbox._cleanup, {"proc": proc, "fds": self._fds}
+            self, IkSandbox._cleanup, {"proc": proc, "fds": self._fds}, self.confinement
         )
         if self.capture:
             assert proc.stdout is not None and proc.stderr is not None
@@ -321,9 +306,10 @@ class IkSandbox:
                 self._threads.append(t)
         limit = self.limits.load_timeout
         try:
-            message = _receive(ans_r, self._until(limit))
+            got = receive(ans_r, self._until(limit))
         except TimeoutError:
             self._fault("timeout", f"importing it took longer than {_seconds(self._limit(limit))}")
+        message = got if isinstance(got, dict) else None
         if message is not None and message.get("ready"):
             return
         if message is not None and "error" in message:
@@ -395,38 +381,41 @@ class IkSandbox:
         T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
         q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
         try:
-            _send(req_w, {"T": T_list, "q": q_list})
+            send(req_w, {"n": self.calls, "T": T_list, "q": q_list})
         except OSError:
             self._died("before a call", None)
         limit = self.limits.call_timeout
-        try:
-            message = _receive(ans_r, self._until(limit))
-        except TimeoutError:
-            self._fault("timeout", f"no answer within {_seconds(self._limit(limit))}")
-        if message is None or "exit" in message or message.get("memory"):
-            self._died("during a call", message)
-        assert message is not None
-        return _answer(message)
+        until = self._until(limit)
+        while True:
+            try:
+                message = receive(ans_r, until)
+            except TimeoutError:
+                self._fault("timeout", f"no answer within {_seconds(self._limit(limit))}")
+            if isinstance(message, Oversized):
+                return _oversized(message.size)
+            if message is None or "exit" in message or message.get("memory"):
+                self._died("during a call", message)
+            if message.get("n") == self.calls:
+                return _answer(message)
+            # else: a message of an earlier call's (the user's code wrote one of its own to the
+            # pipe before its answer): dropped, as the deadline still runs
 
     # ------------------------------------------------------------------ ending
     @staticmethod
-    def _cleanup(state: dict[str, Any]) -> None:
+    def _cleanup(state: dict[str, Any], confinement: Confinement) -> None:
         proc: subprocess.Popen[bytes] | None = state.get("proc")
         for fd in state.get("fds", ()):
             with contextlib.suppress(OSError):
                 os.close(fd)
         if proc is not None:
-            with contextlib.suppress(ProcessLookupError, PermissionError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                proc.wait(timeout=5.0)
+            confinement.end(proc)
 
     def close_process(self) -> None:
         """Kill the user's process group (if running) and collect its output threads."""
         if self._proc is None:
             return
         self._finalizer.detach()
-        IkSandbox._cleanup({"proc": self._proc, "fds": self._fds})
+        IkSandbox._cleanup({"proc": self._proc, "fds": self._fds}, self.confinement)
         self._proc, self._fds = None, (-1, -1)
         for t in self._threads:
             t.join(timeout=5.0)
@@ -444,23 +433,40 @@ class IkSandbox:
         self.close()
 
 
+def _refusal(what: str, why: str) -> Any:
+    """An object standing for an answer that is not numbers: named ``what``, and converting it
+    (``float``, ``numpy.asarray``) raises ``TypeError(why)``, which the guard reports."""
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise TypeError(why)
+
+    return type(what, (), {"__array__": refuse, "__float__": refuse})()
+
+
+def _oversized(size: int) -> Any:
+    """The unusable answer that stands for a message of ``size`` bytes, over the bound."""
+    return _refusal(
+        f"an answer of {size:,} bytes",
+        f"a message may hold at most {MAX_FRAME:,} bytes; six angles take about 150",
+    )
+
+
 def _answer(message: dict[str, Any]) -> Any:
-    """The user's answer from its message (see :func:`_reply`)."""
+    """The user's answer from its message (see :func:`kr210_sim.robot.ik_child.reply`)."""
     if "raised" in message:
         kind = type(str(message["raised"]), (Exception,), {})
         raise kind(str(message.get("message", "")))
     if message.get("none"):
         return None
     if "q" in message:
-        q = np.asarray(message["q"], dtype=np.float64)
-        return q.reshape(tuple(message.get("shape", q.shape)))
-    what = str(message.get("object", "object"))
-    why = str(message.get("why", ""))
-
-    def refuse(*args: object, **kwargs: object) -> None:
-        raise TypeError(why)
-
-    return type(what, (), {"__array__": refuse, "__float__": refuse})()
+        try:  # what the user's process sent: a list of numbers and its shape, or so it says
+            q = np.asarray(message["q"], dtype=np.float64)
+            return q.reshape(tuple(int(n) for n in message.get("shape", q.shape)))
+        except (TypeError, ValueError, OverflowError) as exc:
+            return _refusal(
+                "a malformed answer", f"the answer's message does not hold numbers: {exc}"
+            )
+    return _refusal(str(message.get("object", "object")), str(message.get("why", "")))
 
 
 _GUARDED: dict[tuple[str, float], UserIk] = {}
@@ -491,89 +497,3 @@ def load_user_ik(spec: str, timeout: float | None = None) -> UserIk:
             raise IkSpecError(f"--ik {spec!r}: {exc}") from None
         _GUARDED[key] = UserIk(spec, box)
     return _GUARDED[key]
-
-
-# ====================================================================== the user's process
-def _reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
-    try:
-        out = fn(T, q_ref)
-    except MemoryError:
-        return {"memory": True}
-    except SystemExit as exc:
-        return {"exit": exc.code if isinstance(exc.code, int | None) else str(exc.code)}
-    except BaseException as exc:  # every fault of the user's code is an answer
-        return {"raised": type(exc).__name__, "message": " ".join(str(exc).split())}
-    if out is None:
-        return {"none": True}
-    try:
-        arr = np.asarray(out, dtype=np.float64)
-    except MemoryError:
-        return {"memory": True}
-    except Exception as exc:
-        return {"object": type(out).__name__, "why": " ".join(str(exc).split())}
-    if arr.size > 64:
-        return {"q": [], "shape": list(arr.shape[:1]) + [0] * (arr.ndim - 1)}
-    return {"q": arr.reshape(-1).tolist(), "shape": list(arr.shape)}
-
-
-def die_with_parent(parent: int) -> None:
-    """Have this process killed (SIGKILL) when its parent ``parent`` (a pid) ends; exit now when
-    it has already ended. Linux only (``PR_SET_PDEATHSIG``); elsewhere nothing is set."""
-    import ctypes
-
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != parent:  # the parent died before the line above: go with it
-        os._exit(1)
-
-
-def _set_limits(limits: dict[str, Any], parent: int) -> None:
-    import resource
-
-    die_with_parent(parent)
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    size = int(limits["file_mb"]) << 20
-    resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
-    if limits.get("memory_mb"):
-        size = int(limits["memory_mb"]) << 20
-        resource.setrlimit(resource.RLIMIT_AS, (size, size))
-
-
-def serve(argv: list[str]) -> int:
-    """The user's process: set the limits, import the SPEC, answer calls until the pipe closes.
-
-    Args:
-        argv: ``SPEC REQUEST_FD ANSWER_FD PARENT_PID LIMITS_JSON``.
-    """
-    spec, req, ans, parent, limits = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
-    _set_limits(json.loads(limits), parent)
-    try:
-        fn = load_ik(spec).function
-    except MemoryError:
-        _send(ans, {"memory": True})
-        return 1
-    except IkSpecError as exc:
-        cause = exc.__context__
-        if isinstance(cause, MemoryError):
-            _send(ans, {"memory": True})
-        elif isinstance(cause, SystemExit):
-            _send(ans, {"exit": cause.code if isinstance(cause.code, int | None) else 1})
-        else:
-            _send(ans, {"error": str(exc)})
-        return 1
-    _send(ans, {"ready": True})
-    while True:
-        message = _receive(req, None)
-        if message is None:
-            return 0
-        T = np.asarray(message["T"], dtype=np.float64).reshape(4, 4)
-        q_ref = np.asarray(message["q"], dtype=np.float64)
-        answer = _reply(fn, T, q_ref)
-        _send(ans, answer)
-        if "exit" in answer or "memory" in answer:
-            code = answer.get("exit")
-            os._exit(code if isinstance(code, int) else 1)
-
-
-if __name__ == "__main__":
-    sys.exit(serve(sys.argv[1:]))

@@ -65,6 +65,55 @@ def spec_file(spec: str) -> Path | None:
     return Path(where) if _is_path(where) else None
 
 
+@dataclass(frozen=True, slots=True)
+class SpecFiles:
+    """Where a SPEC's code lives, as a process started elsewhere (another working folder, a
+    jail) must be told.
+
+    Attributes:
+        readable: The user's own files and folders the code is read from: a file SPEC's folder
+            (its other modules may be imported from there), a module SPEC's file or package
+            folder when it lies outside the interpreter's environment (none when installed).
+        search: Folders that must come first on ``sys.path`` for a module SPEC to import as it
+            does here (the folder a module outside the environment was found in).
+    """
+
+    readable: tuple[Path, ...]
+    search: tuple[Path, ...]
+
+
+def _environment_roots() -> tuple[Path, ...]:
+    """The interpreter's own folders: its prefixes (the standard library, site-packages)."""
+    return tuple({Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)})
+
+
+def spec_files(spec: str) -> SpecFiles:
+    """The files a SPEC's code is read from (see :class:`SpecFiles`), found as :func:`load_ik`
+    would find them in this process. A module that cannot be found gives none (loading it then
+    says why)."""
+    where = spec.rpartition(":")[0]
+    if _is_path(where):
+        return SpecFiles((Path(where).resolve().parent,), ())
+    top = where.split(".")[0]
+    if not top or top == __name__.split(".")[0]:
+        return SpecFiles((), ())
+    try:
+        found = importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        found = None
+    if found is None:
+        return SpecFiles((), ())
+    if found.submodule_search_locations:
+        places = [Path(p).resolve() for p in found.submodule_search_locations]
+    elif found.origin and found.has_location:
+        places = [Path(found.origin).resolve()]
+    else:
+        return SpecFiles((), ())  # built in or frozen
+    roots = _environment_roots()
+    outside = tuple(p for p in places if not any(p.is_relative_to(r) for r in roots))
+    return SpecFiles(outside, tuple(dict.fromkeys(p.parent for p in outside)))
+
+
 def describe_exception(exc: BaseException) -> str:
     msg = one_line(str(exc))
     return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
