@@ -116,7 +116,7 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
         "crashed": 3,
         "error": 1,
     }
-    first = "(ik-check case 1 of 85: slot 1 standoff)"
+    first = "(ik-check case 1 of 88: IK_debug case 1)"
     assert by_name["hang"]["detail"] == f"no answer within 1 s {first}"
     assert by_name["quits"]["detail"] == f"the IK process exited with code 3 during a call {first}"
     assert by_name["exits"]["detail"] == f"called sys.exit(4) during a call {first}"
@@ -125,7 +125,7 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
         "--ik '../class/syntax.py:solve': syntax error in ../class/syntax.py line 1: expected ':'"
     )
     ok = by_name["correct"]
-    assert ok["ik_check"]["passed"] == ok["ik_check"]["cases"] == 85  # 65 fixed + 20 random
+    assert ok["ik_check"]["passed"] == ok["ik_check"]["cases"] == 88  # 68 fixed + 20 random
     assert ok["ik_check"]["max_position_error_m"] < 1e-9
     assert ok["run"]["successes"] == 2
     wrong = by_name["no_offset"]

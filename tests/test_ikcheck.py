@@ -27,6 +27,7 @@ WORKED = f"{Path(__file__).resolve().parents[1] / 'examples' / 'ik_dh.py'}:solve
 def test_the_fixed_cases() -> None:
     cases = fixed_cases(KIN)
     groups = [c.group for c in cases]
+    assert groups[:3] == ["ik_debug"] * 3  # the original script's cases come first
     assert groups.count("cell") == 9 * 4 + 9  # four poses per slot, nine drop spots
     assert (groups.count("zero"), groups.count("singular"), groups.count("limits")) == (1, 7, 12)
     assert len({c.name for c in cases}) == len(cases)
@@ -73,11 +74,11 @@ def test_random_cases_are_seeded() -> None:
 def test_our_ik_passes_every_case() -> None:
     result = run_check(load_ik("kr210_sim.robot.kinematics:nearest"), n_random=300, seed=1)
     s = result.report["summary"]
-    assert result.passed and s["cases"] == 65 + 300 and s["pass_rate"] == 1.0
+    assert result.passed and s["cases"] == 68 + 300 and s["pass_rate"] == 1.0
     assert s["max_position_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-8
     assert s["branch_changes"] == 0
     assert result.text.splitlines()[-1] == (
-        "PASS: 365/365 cases within 1 mm and 1 mrad, inside the joint limits"
+        "PASS: 368/368 cases within 1 mm and 1 mrad, inside the joint limits"
     )
 
 
@@ -87,10 +88,10 @@ def test_the_worked_example_passes_every_case(tmp_path: Path) -> None:
     assert code == 0
     data = json.loads(report.read_text())
     s = data["summary"]
-    assert s["passed"] == s["cases"] == 365
+    assert s["passed"] == s["cases"] == 368
     assert s["max_position_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-8
     assert s["branch_changes"] == 0 and s["raised"] == 0
-    assert set(s["groups"]) == {"cell", "zero", "singular", "limits", "random"}
+    assert set(s["groups"]) == {"ik_debug", "cell", "zero", "singular", "limits", "random"}
     rec = data["cases"][0]
     for key in ("position_error_m", "orientation_error_rad", "within_limits", "passed", "error"):
         assert key in rec
@@ -104,7 +105,7 @@ def test_the_missing_offset_fails_every_case_by_54_mm(
     argv = ["ik-check", "--ik", no_offset_ik, "--cases", "200", "--report", str(report)]
     assert main([*argv, "--plots", str(plots)]) == 1
     out = capsys.readouterr().out
-    assert "FAIL: 0/265 cases" in out and "worst cases (265 failed)" in out
+    assert "FAIL: 0/268 cases" in out and "worst cases (268 failed)" in out
     data = json.loads(report.read_text())
     answered = [r for r in data["cases"] if r["q"] is not None]
     assert len(answered) > 240  # a few poses near the edge of reach get None
@@ -139,7 +140,7 @@ def test_a_raising_function_is_recorded_with_its_message() -> None:
     result = run_check(UserIk("test:picky", picky), n_random=50, seed=0)
     s = result.report["summary"]
     low = [r for r in result.report["cases"] if r["position"][2] < 1.0]
-    assert calls == s["cases"] == 115 and s["raised"] == len(low) > 0
+    assert calls == s["cases"] == 118 and s["raised"] == len(low) > 0
     assert s["passed"] == s["cases"] - len(low)
     for r in low:
         assert r["error"].startswith("ValueError: too low: z = ")
@@ -197,9 +198,9 @@ def test_cases_must_be_a_count(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_fixed_cases_only(tmp_path: Path) -> None:
     result = run_check(load_ik(WORKED), n_random=0, report_path=tmp_path / "r.json")
-    assert result.report["summary"]["cases"] == 65
+    assert result.report["summary"]["cases"] == 68
     assert math.isfinite(result.report["summary"]["wall_time_s"]["per_call_max"])
-    assert json.loads((tmp_path / "r.json").read_text())["summary"]["cases"] == 65
+    assert json.loads((tmp_path / "r.json").read_text())["summary"]["cases"] == 68
 
 
 def test_an_absurd_number_of_cases_is_one_line(
@@ -224,3 +225,44 @@ def test_the_cell_cases_start_from_the_cells_ready_pose(ready_cell: Path) -> Non
     standoffs = [c for c in cases if c.name.endswith("standoff")]
     assert len(drops) == 9 and len(standoffs) == 9
     assert all(np.allclose(c.q_ref, ready) for c in (*drops, *standoffs))
+
+
+def test_the_ik_debug_cases_and_what_the_script_printed(tmp_path: Path) -> None:
+    """The three cases of the exercise's IK_debug.py: their wrist centres are the ones the script
+    listed, Gazebo's angles are within 0.01 rad of our solution, and the report's rows give the
+    script's figures, for the worked example and for the classic 0.054 m mistake."""
+    from kr210_sim.eval.ikcheck import IK_DEBUG_CASES, ik_debug_cases
+
+    cases = ik_debug_cases(KIN)
+    assert [c.name for c in cases] == [f"IK_debug case {i}" for i in (1, 2, 3)]
+    g = KIN.geometry
+    listed = [(1.89451, -1.44302, 1.69366), (-0.638, 0.64198, 2.9988), (-1.1669, -0.17989, 0.85137)]
+    for case, wc, (_, _, gazebo) in zip(cases, listed, IK_DEBUG_CASES, strict=True):
+        np.testing.assert_allclose(case.T[:3, 3] - g.dg * case.T[:3, 0], wc, atol=7e-5)  # rounded
+        ours = kinematics.nearest(case.T, case.q_ref)
+        assert np.abs(ours - np.array(gazebo)).max() < 0.006  # given to 0.01 rad
+    worked = run_check(load_ik(WORKED), n_random=0, report_path=tmp_path / "w.json")
+    rows = worked.report["ik_debug"]
+    assert [r["case"] for r in rows] == [1, 2, 3]
+    for r in rows:
+        assert r["end_effector_error_m"]["overall"] < 1e-9
+        assert r["wrist_centre_error_m"]["overall"] < 1e-9
+        assert 0.0005 < max(r["theta_errors_rad"]) < 0.006
+    lines = worked.text.splitlines()
+    head = lines.index(
+        "  IK_debug.py's cases (theta errors against Gazebo's joint angles, given to 0.01 rad):"
+    )
+    first = lines[head + 3].split()
+    assert first[:5] == ["1", "0.0000", "0.0000", "0.0000", "0.0000"]
+    assert [float(v) for v in first[5:11]] == pytest.approx(rows[0]["theta_errors_rad"], abs=6e-5)
+    # The 0.054 m drop left out: the angles put the wrist centre (and so the end effector)
+    # 54 mm from where the pose puts it.
+    spec = tmp_path / "no_drop.py"
+    spec.write_text(
+        Path(WORKED.rpartition(":")[0]).read_text().replace("\nA3 = -0.054", "\nA3 = 0.0")
+    )
+    wrong = run_check(load_ik(f"{spec}:solve"), n_random=0)
+    for r in wrong.report["ik_debug"]:
+        assert r["wrist_centre_error_m"]["overall"] == pytest.approx(0.054, abs=1e-9)
+        assert r["end_effector_error_m"]["overall"] == pytest.approx(0.054, abs=1e-9)
+        assert r["problem"].startswith("returned q")

@@ -121,10 +121,11 @@ def fixed_rotation(
     if spread > SAME_ROTATION:
         return None
     angle, axis = _rotation_of(first)
+    about = (np.round(axis, 2) + 0.0).tolist()  # + 0.0: no "-0.0"
     return Finding(
         "gripper_frame",
         f"every answer's orientation is off by the same rotation, {math.degrees(angle):.1f} "
-        f"deg about {np.round(axis, 2).tolist()} of gripper_link: a fixed frame correction is "
+        f"deg about {about} of gripper_link: a fixed frame correction is "
         "missing, e.g. the DH gripper frame against URDF gripper_link "
         "(R_corr = Rz(pi) Ry(-pi/2))",
     )
