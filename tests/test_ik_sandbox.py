@@ -335,7 +335,7 @@ def test_ik_check_and_evaluate_take_the_limit_too(
     assert main([*argv, "--report", str(report)]) == 1
     cases = json.loads(report.read_text())["cases"]
     assert [c["error"] for c in cases if not c["passed"]] == ["IkTimeout: no answer within 1 s"]
-    assert len(cases) == 65 and cases[0]["error"] is not None  # the first call hung
+    assert len(cases) == 68 and cases[0]["error"] is not None  # the first call hung
     again = tmp_path / "again"  # a new SPEC: a new sandbox (one per SPEC and limit), not hung yet
     again.mkdir()
     spec = _hangs_once(again)
