@@ -114,3 +114,35 @@ def test_answers_outside_the_limits_raises_and_nones_are_counted(cases: list[Cas
     n_out = sum(r["q"] is not None and not r["within_limits"] for r in records)
     assert found["outside_limits"].startswith(f"{n_out} answers lie outside the joint limits")
     assert "ZeroDivisionError: atan2 by hand" in found["raised"]
+
+
+def test_unusable_answers_are_named_with_what_to_do(cases: list[Case]) -> None:
+    """NaN, a generator, a dict, the wrong shape: every answer unusable gave no finding."""
+    n = len(cases)
+    for fn, start in (
+        (lambda T, q: [float("nan")] * 6, f"{n} of {n} answers are NaN or inf (e.g. IK_debug"),
+        (lambda T, q: (x for x in q), f"{n} of {n} answers are not numbers (e.g. IK_debug"),
+        (lambda T, q: {"q": list(q)}, f"{n} of {n} answers are not numbers"),
+        (lambda T, q: [0.0] * 5, f"{n} of {n} answers do not hold six angles"),
+    ):
+        records = check(KIN, UserIk("t:s", fn), cases, io.StringIO())
+        found = diagnose(KIN, records, [c.T for c in cases])
+        assert [f.code for f in found] == ["unusable"], found
+        assert found[0].text.startswith(start), found[0].text
+    text = _texts(cases, lambda T, q: [float("nan")] * 6)[0]
+    assert "returned NaN or inf for joint_1, joint_2" in text and "acos or asin" in text
+    generator = _texts(cases, lambda T, q: (x for x in q))[0]
+    assert "returned generator, not six numbers" in generator and "six floats [rad]" in generator
+
+    def some_nan(T: np.ndarray, q: np.ndarray) -> Any:  # most answers right, a few NaN
+        a = kinematics.nearest(T, q)
+        return [math.nan] * 6 if a[0] > 1.0 else a
+
+    bad = sum(kinematics.nearest(c.T, c.q_ref)[0] > 1.0 for c in cases)
+    assert 0 < bad < n
+    assert _texts(cases, some_nan)[0].startswith(f"{bad} of {n} answers are NaN or inf")
+
+
+def _texts(cases: list[Case], fn: Callable[..., Any]) -> list[str]:
+    records = check(KIN, UserIk("t:s", fn), cases, io.StringIO())
+    return [f.text for f in diagnose(KIN, records, [c.T for c in cases])]

@@ -1,14 +1,17 @@
 """``grade``: a class of submissions, each in its own sandbox, one leaderboard (eval/grade.py).
 
-The class below has one submission per way student code goes wrong (a hang, ``os._exit``,
+The first class below has one submission per way student code goes wrong (a hang, ``os._exit``,
 ``sys.exit``, a memory hog, a syntax error, 10 MB of prints), a correct one and one with the
-classic 0.054 m mistake; it is graded in one call of the real command.
+classic 0.054 m mistake. The second is hostile: names made to break a shell, a terminal, a
+page or the grader's temporary files, and submissions that forge their record or kill their
+grading process. Each is graded in one call of the real command.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shlex
 import signal
 import subprocess
 import sys
@@ -19,7 +22,7 @@ import pytest
 
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
-from kr210_sim.eval.grade import Student, find_students
+from kr210_sim.eval.grade import GradeSettings, relevant_line
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "ik_dh.py"
@@ -126,13 +129,16 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
     )
     ok = by_name["correct"]
     assert ok["ik_check"]["passed"] == ok["ik_check"]["cases"] == 88  # 68 fixed + 20 random
+    times = ok["wall_time_s"]
+    assert 0 < times["student"] < times["total"]  # its own time: import and calls
     assert ok["ik_check"]["max_position_error_m"] < 1e-9
     assert ok["run"]["successes"] == 2
     wrong = by_name["no_offset"]
     assert wrong["ik_check"]["passed"] == 0
     assert abs(wrong["ik_check"]["max_position_error_m"] - 0.054) < 1e-6
     assert wrong["diagnosis"][0]["code"] == "offset_0054"
-    assert wrong["run"]["successes"] == 0
+    assert (wrong["run"]["successes"], wrong["run"]["cycles"]) == (0, 2)
+    assert by_name["hang"]["run"] is None and by_name["hang"]["ik_check"] is None
     assert wrong["run"]["failed_cycles"][0]["replay"] == (
         "python -m kr210_sim run --ik ../class/no_offset.py:solve --ik-timeout 1 --cycles 1 "
         "--seed 0 --video videos/no_offset_cycle1.mp4"
@@ -184,12 +190,17 @@ def test_sigterm_keeps_the_students_finished_and_leaves_nothing_running(tmp_path
 
 
 @pytest.mark.slow
-def test_exit_0_when_every_student_passes(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+def test_exit_0_when_every_student_passes(
+    tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mod_ik.py").write_text(EXAMPLE.read_text())  # a module SPEC, found here
     report = tmp_path / "grade.json"
-    argv = ["grade", f"{EXAMPLE}:solve", "--cases", "0", "--cycles", "1", "--workers", "1"]
-    assert main([*argv, "--report", str(report)]) == 0
-    assert "PASS: all 1 students passed" in capsys.readouterr().out
-    assert json.loads(report.read_text())["students"][0]["name"] == "ik_dh"
+    argv = ["grade", f"{EXAMPLE}:solve", "mod_ik:solve", "--cases", "0", "--cycles", "1"]
+    assert main([*argv, "--workers", "2", "--report", str(report)]) == 0
+    assert "PASS: all 2 students passed" in capsys.readouterr().out
+    students = json.loads(report.read_text())["students"]
+    assert sorted(s["name"] for s in students) == ["ik_dh", "mod_ik"]
 
 
 def test_usage_errors_are_one_line_and_exit_2(
@@ -203,6 +214,10 @@ def test_usage_errors_are_one_line_and_exit_2(
         ([str(tmp_path / "x.txt")], "not a folder, a .py file or a SPEC"),
         ([f"{EXAMPLE}:solve", "--memory", "100"], "--memory must be at least 256 MB"),
         ([f"{EXAMPLE}:solve", "--report", str(tmp_path)], "is a folder"),
+        ([f"{tmp_path}/victim:solve"], f"{tmp_path}/victim is not a .py file"),
+        (["..:solve"], "'..' is neither a .py file nor a module name"),
+        ([str(EXAMPLE), "--cases", "99999999999999999999"], "--cases must be a whole number"),
+        ([str(EXAMPLE), "--cases", "1000001"], "from 0 to 1,000,000, got 1000001"),
     ):
         assert main(["grade", *argv]) == 2
         err = capsys.readouterr().err
@@ -213,29 +228,179 @@ def test_usage_errors_are_one_line_and_exit_2(
         assert info.value.code == 2
 
 
-def test_submissions_resolve_to_named_students(tmp_path: Path) -> None:
-    (tmp_path / "alice.py").write_text("def solve(T, q): return q\n")
-    (tmp_path / "_helper.py").write_text("")
-    bob = tmp_path / "bob"
-    bob.mkdir()
-    (bob / "ik.py").write_text("")
-    (bob / "util.py").write_text("")
-    carol = tmp_path / "carol"
-    carol.mkdir()
-    (carol / "my_solution.py").write_text("")
-    dave = tmp_path / "dave"
-    dave.mkdir()
-    (dave / "a.py").write_text("")
-    (dave / "b.py").write_text("")
-    (tmp_path / ".hidden").mkdir()
-    (tmp_path / "notes.txt").write_text("")
-    found = find_students([str(tmp_path), f"{EXAMPLE}:nearest"])
-    assert found == [
-        Student("alice", f"{tmp_path}/alice.py:solve"),
-        Student("bob", f"{bob}/ik.py:solve"),
-        Student("carol", f"{carol}/my_solution.py:solve"),
-        Student("dave", "", f"no ik.py in {dave} (2 .py files)"),
-        Student("ik_dh", f"{EXAMPLE}:nearest"),
-    ]
-    with pytest.raises(ConfigError, match="two students named 'alice'"):
-        find_students([str(tmp_path), str(tmp_path / "alice.py")])
+def test_settings_are_checked_as_the_options_are() -> None:
+    GradeSettings(cases=1_000_000, cycles=10_000)
+    for bad, why in (
+        ({"cases": 1_000_001}, "--cases must be a whole number from 0 to 1,000,000"),
+        ({"cases": -1}, "--cases"),
+        ({"cases": True}, "--cases"),
+        ({"cycles": 0}, "--cycles must be a whole number from 1 to 10,000"),
+        ({"seed": -1}, "--seed"),
+        ({"timeout": float("inf")}, "--timeout and --ik-timeout must be > 0 s"),
+        ({"ik_timeout": 0}, "--timeout and --ik-timeout"),
+        ({"min_success": 1.5}, "--min-success must be in [0, 1]"),
+        ({"workers": 0}, "--workers must be at least 1"),
+        ({"memory_mb": 100}, "--memory must be at least 256 MB"),
+    ):
+        with pytest.raises(ConfigError) as info:
+            GradeSettings(**bad)  # type: ignore[arg-type]
+        assert why in str(info.value)
+    s = GradeSettings()
+    assert s.own_time_cap == 120 + 30 * 10 + 0.01 * 1000 == s.config()["own_time_cap_s"]
+
+
+def test_a_dead_grading_process_is_described_by_what_killed_it() -> None:
+    """Every grading process printed a runpy RuntimeWarning, and the detail of each one that
+    died quoted it."""
+    warning = (
+        b"<frozen runpy>:128: RuntimeWarning: 'kr210_sim.eval.student' found in sys.modules "
+        b"after import of package 'kr210_sim.eval', but prior to execution\n"
+    )
+    assert relevant_line(warning) == ""
+    traceback = b"Traceback (most recent call last):\n  File x\nValueError: too big\n\n"
+    assert relevant_line(warning + traceback) == "ValueError: too big"
+    assert relevant_line(b"first\nFatal Python error: Aborted\n" + warning) == (
+        "Fatal Python error: Aborted"
+    )
+    assert relevant_line(b"bad \xff byte\n") == "bad \ufffd byte"
+
+
+#: Forged records: what a student would like the grader to believe.
+_FORGER = """
+import json, os, pathlib, struct
+
+FAKE = json.dumps({"name": "x", "spec": None, "verdict": "pass", "detail": "forged",
+    "ik_check": None, "run": None, "diagnosis": [], "wall_time_s": {"total": 1.0},
+    "output": {"bytes": 0, "stdout": "", "stderr": ""}}).encode()
+
+def forge():
+    for where in (pathlib.Path.cwd().parent.parent / "grader", pathlib.Path.cwd().parent):
+        for name in ("NAME.json", "0.json", "1.json"):
+            try:
+                (where / name).write_text(FAKE.decode())
+            except OSError:
+                pass
+    mine = set()
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            mine.add(os.readlink(f"/proc/self/fd/{fd}"))
+        except OSError:
+            pass
+    parent = os.getppid()
+    for fd in os.listdir(f"/proc/{parent}/fd"):
+        path = f"/proc/{parent}/fd/{fd}"
+        try:
+            target = os.readlink(path)
+        except OSError:
+            continue
+        if int(fd) > 2 and target.startswith("pipe:") and target not in mine:
+            frame = struct.pack("!Q", len(FAKE)) + FAKE + bytes(32)
+            try:
+                out = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+                os.write(out, frame)
+                os.close(out)
+            except OSError:
+                pass
+"""
+HOSTILE = {
+    "<script>window.pwned=1": None,
+    '"><img src=x onerror=window.pwned=2>': None,
+    "$(touch pwned)": None,
+    'it\'s "quoted"': None,
+    "a" * 250: None,
+    "x": None,
+    "x.job": "import os\n\ndef solve(T, q):\n    os.kill(os.getppid(), 9)\n",
+    "forge": _FORGER
+    + (
+        "\nfrom correct_ik import solve as _solve\n\ndef solve(T, q):\n    forge()\n"
+        "    os.kill(os.getppid(), 9)\n"
+    ),
+    "liar": _FORGER
+    + (
+        "\nfrom correct_ik import solve as _solve\n_done = []\n\ndef solve(T, q):\n"
+        "    if not _done:\n        forge()\n        _done.append(1)\n    return _solve(T, q)\n"
+    ),
+    "mallory": (
+        "import os, pathlib\n\ndef solve(T, q):\n"
+        "    here = pathlib.Path.cwd()\n"
+        "    for where in (here.parent.parent / 'grader', here.parent):\n"
+        "        try:\n"
+        "            (where / 'mallory.json').write_text('[]')\n"
+        "        except OSError:\n"
+        "            pass\n"
+        "    os.kill(os.getppid(), 9)\n"
+    ),
+    "nan": "def solve(T, q):\n    return [float('nan')] * 6\n",
+}
+BAD_NAME = b"bad\xffname"
+
+
+@pytest.mark.slow
+def test_a_hostile_class_is_graded_and_its_page_runs_nothing(tmp_path: Path) -> None:
+    """Forged records were believed (``pass``) or crashed the whole grade; odd names crashed
+    it with no report; a non-UTF-8 name was graded ``error`` and broke the page."""
+    folder = tmp_path / "hostile"
+    folder.mkdir()
+    src = EXAMPLE.read_text()
+    (folder / "_correct_ik.py").write_text(src)  # skipped: a helper the forgers import
+    for name, body in HOSTILE.items():
+        (folder / f"{name}.py").write_text(body or src)
+    for name in ("forge", "liar"):  # import the helper by its real name
+        path = folder / f"{name}.py"
+        path.write_text(path.read_text().replace("from correct_ik", "from _correct_ik"))
+    (folder / os.fsdecode(BAD_NAME + b".py")).write_text(src)
+    (folder / "--x.py").write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
+    (folder / "dangling.py").symlink_to("nonexistent.py")
+    (folder / "BOB.PY").write_text(src)
+    (folder / "carol.ipynb").write_text("{}")
+    before = _tree(folder)
+    cwd, tmp, out = tmp_path / "cwd", tmp_path / "tmp", tmp_path / "out"
+    for d in (cwd, tmp, out):
+        d.mkdir()
+    args = ["../hostile", "--cases", "0", "--cycles", "1", "--workers", "2"]
+    args += ["--report", str(out / "grade.json"), "--html", str(out / "grade.html")]
+    proc = _grade(args, cwd, tmp)
+    raw_out, raw_err = proc.communicate(timeout=900)
+    stdout = raw_out.encode("utf-8", "surrogateescape").decode("utf-8")  # strict: printable
+    assert proc.returncode == 1, raw_err
+    assert "Traceback" not in stdout + raw_err
+    report = json.loads((out / "grade.json").read_bytes().decode("utf-8"))
+    by_name = {s["name"]: s for s in report["students"]}
+    expected = {name: "pass" for name, body in HOSTILE.items() if body is None}
+    expected |= {"bad\\xffname": "pass", "--x": "fail", "nan": "fail"}
+    expected |= {"x.job": "crashed", "forge": "crashed", "liar": "crashed", "mallory": "crashed"}
+    expected |= {"dangling": "error", "BOB.PY": "error", "carol.ipynb": "error"}
+    assert {n: s["verdict"] for n, s in by_name.items()} == expected
+    killed = "the grading process was killed by SIGKILL"
+    assert by_name["x.job"]["detail"] == killed  # no runpy warning quoted
+    assert by_name["forge"]["detail"] == killed and by_name["mallory"]["detail"] == killed
+    assert by_name["liar"]["detail"].startswith(
+        "the grading process exited with code 0, but "
+    ) and by_name["liar"]["detail"].endswith("bytes came over its record pipe, not one record")
+    assert by_name["nan"]["diagnosis"][0]["code"] == "unusable"
+    assert by_name["nan"]["run"]["cycles"] == 1
+    assert by_name["bad\\xffname"]["spec"] == "../hostile/bad\\xffname.py:solve"
+    assert by_name["dangling"]["detail"].endswith(
+        "is a symbolic link to nonexistent.py, which does not exist"
+    )
+    # The film-it commands run as printed.
+    (replay,) = [c["replay"] for c in by_name["--x"]["run"]["failed_cycles"]]
+    assert shlex.split(replay)[3:6] == ["run", "--ik", "../hostile/--x.py:solve"]
+    # Nothing ran that a name holds, nothing was left or written beside the class.
+    assert not list(tmp_path.rglob("pwned"))
+    assert _ours_running(str(tmp_path)) == []
+    assert _tree(folder) == before
+    assert _tree(tmp) == [] and _tree(cwd) == []
+    assert _tree(out) == ["grade.html", "grade.json"]
+    # The page: every student, no script.
+    from chromium import Chromium, find_chromium
+    from test_leaderboard import check_page, page_in_browser  # the page in a browser
+
+    if find_chromium() is None:
+        why = "no Chromium here (bash .ci/run installs chromium-headless-shell)"
+        if os.environ.get("KR210_REQUIRE_CHROMIUM"):
+            pytest.fail(why, pytrace=False)
+        pytest.skip(why)
+    with Chromium(width=1000, height=700, timeout=60) as browser:
+        shown = page_in_browser(browser, out / "grade.html")
+    check_page(shown, [s["name"] for s in report["students"]])

@@ -1,13 +1,23 @@
-"""The leaderboard's order, table, report and page (eval/leaderboard.py)."""
+"""The leaderboard's order, table, report and page (eval/leaderboard.py), and the page in a real
+headless Chromium with hostile names and texts: it renders, no script runs, every student is
+there."""
 
 from __future__ import annotations
 
 import base64
+import io
 import json
+import os
+import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pytest
+
 from kr210_sim.eval.leaderboard import build_report, page, ranked, table, write_html
+from kr210_sim.eval.record import clean
 
 PNG = base64.b64encode(b"\x89PNG\r\n\x1a\nnot really").decode()
 
@@ -103,6 +113,107 @@ def test_page_is_self_contained_and_escaped(tmp_path: Path) -> None:
     assert html.count(f"data:image/png;base64,{PNG}") == 7
     assert "a &lt;b&gt; &amp; c" in html and "&lt;hi&gt;" in html
     assert "http" not in html and "<script" not in html and "<link" not in html
-    assert html.index('id="cid"') < html.index('id="zed"')
+    assert html.index("<h2>cid ") < html.index("<h2>zed ")
+    assert html.index('href="#student-1">cid<') < html.index('id="student-1"')
     path = write_html(tmp_path / "board.html", report, with_plots)
     assert path.read_text() == html
+
+
+def test_the_cycles_column_reads_successes_of_the_cycles_asked_for() -> None:
+    stopped = _record("gus", "timeout", 0, 85)
+    stopped["run"] |= {"cycles": 10, "cycles_run": 7, "successes": 7}
+    report = build_report([stopped], CONFIG, 1, 1.0, None)
+    assert table(report).splitlines()[1].split()[6] == "7/10"
+    assert "run: 7/10 cycles succeeded (stopped after 7)" in page(report, [stopped])
+
+
+# -- in a real browser -----------------------------------------------------------------------
+#: Hostile texts: markup that would run a script or load something, were it not escaped.
+HOSTILE = (
+    "<script>window.pwned=1</script>",
+    '"><img src=x onerror="window.pwned=2">',
+    "'><svg onload=window.pwned=3>",
+    "$(touch pwned) `touch pwned2`",
+    "</pre></section><iframe src=javascript:window.pwned=4>",
+    os.fsdecode(b"bad\xffname \xc3\x28"),  # not UTF-8: a file name's bytes
+    "long" * 1250,
+)
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    from chromium import Chromium, find_chromium
+
+    if find_chromium() is None:
+        why = "no Chromium here (bash .ci/run installs chromium-headless-shell)"
+        if os.environ.get("KR210_REQUIRE_CHROMIUM"):
+            pytest.fail(why, pytrace=False)
+        pytest.skip(why)
+    with Chromium(width=1000, height=700, timeout=60) as c:
+        yield c
+
+
+def page_in_browser(browser: Any, path: Path) -> dict[str, Any]:
+    """Load the leaderboard page ``path`` in Chromium; what it shows and what ran in it."""
+    browser.open(path.resolve().as_uri())
+    deadline = time.monotonic() + 30
+    while browser.evaluate("document.readyState") != "complete":
+        assert time.monotonic() < deadline, "the page did not load"
+        time.sleep(0.05)
+    found = browser.evaluate(
+        """JSON.stringify({
+          title: document.title,
+          pwned: typeof window.pwned,
+          scripts: document.scripts.length,
+          active: document.querySelectorAll(
+            '[onerror],[onload],[onclick],iframe,object,embed,svg,link,base,meta[http-equiv]'
+          ).length,
+          rows: [...document.querySelectorAll('table tr')].slice(1).map(
+            tr => tr.querySelector('td:nth-child(2)').textContent),
+          links: [...document.querySelectorAll('a')].map(a => a.getAttribute('href')),
+          sections: [...document.querySelectorAll('section h2')].map(
+            h => h.firstChild.textContent.trim()),
+          images: [...document.images].map(i => i.src.slice(0, 22)),
+          text: document.body.innerText,
+        })"""
+    )
+    from PIL import Image
+
+    shot = np.asarray(Image.open(io.BytesIO(browser.screenshot())).convert("RGB"))
+    result: dict[str, Any] = json.loads(found)
+    result["screenshot_std"] = float(shot.std())
+    return result
+
+
+def check_page(shown: dict[str, Any], names: list[str]) -> None:
+    """The page rendered, ran nothing, and lists ``names`` (in order) in the table and the
+    sections."""
+    assert shown["title"] == "kr210_sim grade"
+    assert shown["pwned"] == "undefined" and shown["scripts"] == 0 and shown["active"] == 0
+    assert shown["rows"] == names and shown["sections"] == names
+    assert all(h.startswith("#student-") for h in shown["links"])
+    assert all(src == "data:image/png;base64," for src in shown["images"])
+    assert shown["screenshot_std"] > 5  # not a blank page
+
+
+@pytest.mark.slow
+def test_the_page_shows_hostile_names_and_texts_as_text(browser: Any, tmp_path: Path) -> None:
+    records = []
+    for i, text in enumerate(HOSTILE):
+        r = _record(text, "fail", 1, 80)
+        r["detail"] = text
+        r["diagnosis"] = [{"code": "x", "text": text}]
+        r["output"] = {"bytes": 10, "stdout": text, "stderr": text}
+        r["run"]["failed_cycles"][0] |= {"detail": text, "replay": text, "reason": text}
+        r["ik_check"]["max_position_error_m"] = i / 1000  # the rank: HOSTILE's order
+        records.append(clean(r))  # as the grader keeps every record
+    report = build_report(records, CONFIG, 1, 1.0, None)
+    path = write_html(tmp_path / "board.html", report, records)
+    path.read_bytes().decode("utf-8")  # strict UTF-8
+    shown = page_in_browser(browser, path)
+    names = [r["name"] for r in records]
+    check_page(shown, names)
+    assert "bad\\xffname \\xc3(" in names[5]
+    for text in names[:5]:  # every hostile text is on the page as text, where it was put
+        assert shown["text"].count(text) >= 6, text
+    assert not (tmp_path / "pwned").exists()

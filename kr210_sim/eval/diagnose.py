@@ -12,6 +12,8 @@ Each finding is a short code and a sentence that says what the figures show and 
   4 and 6 about pi away from the one nearest ``q_ref``), or a cycle that failed on one.
 * ``two_pi``: answers 2 pi away from the nearest twin, or a cycle that failed on one.
 * ``outside_limits``: answers outside the joint limits (with no 2 pi twin inside them).
+* ``unusable``: answers that are not six finite joint angles: NaN or inf (a math domain error),
+  not numbers at all (a generator, a dict), or the wrong shape; one finding per kind.
 * ``raised`` / ``none``: the function raised, or returned None for poses that can be reached.
 
 The figures come from :mod:`kr210_sim.eval.ikcheck` records (and, for ``gripper_frame``, the
@@ -145,6 +147,48 @@ def _branch_counts(records: Sequence[dict[str, Any]]) -> dict[str, int]:
     return counts
 
 
+#: The kinds of unusable answer: a phrase of the check's ``problem``, what it is, what to do.
+_UNUSABLE = (
+    (
+        "NaN or inf",
+        "are NaN or inf",
+        "a math domain error is likely (acos or asin of a value past +-1, the square root of a "
+        "negative number, a division by zero): clamp the argument, and return None for a pose "
+        "that cannot be reached",
+    ),
+    (
+        "not six numbers",
+        "are not numbers",
+        "return a list, tuple or array of six floats [rad] (or None)",
+    ),
+    (
+        "not six angles",
+        "do not hold six angles",
+        "return the six joint angles [rad] of one solution, joint_1 first (or None)",
+    ),
+)
+
+
+def unusable_answers(records: Sequence[dict[str, Any]]) -> list[Finding]:
+    """``unusable``: answers that are no six finite angles, one finding per kind (see the
+    module doc), the most frequent first."""
+    found = []
+    for phrase, what, fix in _UNUSABLE:
+        bad = [
+            r
+            for r in records
+            if r["q"] is None and not r.get("error") and phrase in str(r.get("problem") or "")
+        ]
+        if bad:
+            text = (
+                f"{len(bad)} of {len(records)} answers {what} (e.g. {bad[0]['name']}: "
+                f"{bad[0]['problem']}): {fix}"
+            )
+            found.append((len(bad), Finding("unusable", text)))
+    found.sort(key=lambda nf: -nf[0])
+    return [f for _, f in found]
+
+
 def _cycles_with(failed: Sequence[dict[str, Any]], words: str) -> list[int]:
     return [int(c["cycle"]) for c in failed if words in str(c.get("detail") or "")]
 
@@ -170,6 +214,7 @@ def diagnose(
     for f in (offset_left_out(records), fixed_rotation(kin, records, poses)):
         if f is not None:
             found.append(f)
+    found.extend(unusable_answers(records))
     counts = _branch_counts(records)
     for code, kind, fix in (
         ("wrist_flip", "wrist flip", "of the wrist's two solutions return the one nearest q_ref"),

@@ -1,24 +1,39 @@
 """``grade``: many students' IK solutions, each in its own sandbox, one leaderboard.
 
-A SUBMISSION is a SPEC (``path/file.py:function``), a ``.py`` file (its ``solve``), or a folder:
-each ``.py`` file in it is one student, named by the file, and each subfolder is one student,
-named by the folder, whose ``solve`` is in :data:`STUDENT_MODULE` (or in the folder's only
-``.py`` file). Files and folders whose names start with ``.`` or ``_`` are skipped.
+Who the students are: :mod:`kr210_sim.eval.roster`. Each student is graded by a process of its
+own, its *grading process* (:mod:`kr210_sim.eval.student`), at most ``workers`` at a time; that
+process runs the student's IK in a sandbox (:mod:`kr210_sim.robot.ik_sandbox`). Every grading
+process is started in a session of its own and dies with its parent (``PR_SET_PDEATHSIG``).
 
-Each student is graded in a process of its own (:mod:`kr210_sim.eval.student`), at most
-``workers`` at a time; that process runs the student's IK in a sandbox
-(:mod:`kr210_sim.robot.ik_sandbox`). Every process is started in a session of its own and dies
-with its parent (``PR_SET_PDEATHSIG``); on Ctrl-C or SIGTERM the running students are killed, the
-report of the students finished so far is written, and the exit code says which signal it was.
-The scratch folders (one per student, the student's working folder) live in one temporary folder
-that is removed at the end.
+What comes back, and what is believed: the grading process gets its job and a fresh key on its
+standard input and sends its record over a pipe that only it and the grader hold, sealed with
+that key (:mod:`kr210_sim.eval.record`). The record counts only when that process exited with
+code 0 and the record is one sealed frame with every field the leaderboard reads; otherwise
+the student is ``crashed``, with a detail that says which (and, for a process that died, the
+line of its standard error that tells why: the last line of a traceback). A student's record
+can never stop the report: whatever is wrong with it is that student's verdict.
+
+Time: ``timeout`` bounds the student's own time (importing its module, and each call from the
+pose sent to the answer back: :class:`~kr210_sim.eval.student.StudentClock`); our own part of a
+student (start-up, checks, planning, simulation) has a cap of its own,
+:attr:`GradeSettings.own_time_cap`. A grading process still running after both is killed, and
+the student is ``timeout`` with a detail that says so.
+
+The scratch folders (one per student, named by its index, the student's working folder) and the
+plots live in one temporary folder that is removed at the end. On Ctrl-C or SIGTERM the running
+students are killed, the report of the students finished so far is written, and the exit code
+says which signal it was.
 """
 
 from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
+import re
+import secrets
+import selectors
 import shutil
 import signal
 import subprocess
@@ -31,38 +46,48 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.eval.ikcheck import MAX_RANDOM_CASES
 from kr210_sim.eval.leaderboard import build_report, student_line, table, write_html
-from kr210_sim.eval.student import StudentJob
+from kr210_sim.eval.record import (
+    RECORD_LIMIT,
+    blank_record,
+    clean,
+    one_line,
+    printable,
+    record_problem,
+    unseal,
+)
+from kr210_sim.eval.roster import STUDENT_FUNCTION, STUDENT_MODULE, Student, find_students
+from kr210_sim.eval.student import STUDENT_COMMAND, StudentJob
 from kr210_sim.robot.ik_sandbox import DEFAULT_MEMORY_MB, MIN_MEMORY_MB
-from kr210_sim.robot.user_ik import split_spec
+from kr210_sim.robot.user_ik import spec_file
+from kr210_sim.sim.runner import MAX_CYCLES
 from kr210_sim.util.interrupts import signal_name
 
-#: The module a student's folder keeps its ``solve`` in.
-STUDENT_MODULE = "ik.py"
-#: The function a ``.py`` file or a folder is graded by.
-STUDENT_FUNCTION = "solve"
-#: Time our own part of a student (start-up, simulation) may add to ``timeout`` before the
-#: grader kills the student's process itself [s].
-GRACE = 60.0
-#: The process that grades one student (:func:`kr210_sim.eval.student.main`).
-STUDENT_COMMAND = (sys.executable, "-m", "kr210_sim.eval.student")
+__all__ = [
+    "STUDENT_FUNCTION",
+    "STUDENT_MODULE",
+    "GradeResult",
+    "GradeSettings",
+    "Student",
+    "find_students",
+    "grade",
+]
+
+#: Our own part of a student, at most: a base [s] ...
+OWN_TIME_BASE = 120.0
+#: ... plus this per cycle of the run [s] ...
+OWN_TIME_PER_CYCLE = 30.0
+#: ... plus this per random ik-check case [s].
+OWN_TIME_PER_CASE = 0.01
 #: How often the grader looks at its running students [s].
 POLL = 0.05
-
-
-@dataclass(frozen=True, slots=True)
-class Student:
-    """One submission to grade.
-
-    Attributes:
-        name: File or folder name (a SPEC's file name without ``.py``).
-        spec: SPEC of its ``solve`` ("" when ``problem`` is set).
-        problem: Why it cannot be graded (a folder without :data:`STUDENT_MODULE`), or "".
-    """
-
-    name: str
-    spec: str
-    problem: str = ""
+#: Bytes of a grading process's standard error kept (the last ones).
+STDERR_KEPT = 16_384
+#: How long the grader waits for a grading process's pipes to close once it exited [s].
+EOF_GRACE = 2.0
+#: A Python warning line (``file:line: SomeWarning: text``): never the reason a process died.
+_WARNING = re.compile(r"^\S.*:\d+: \w*Warning: ")
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,14 +95,17 @@ class GradeSettings:
     """How every student is graded.
 
     Attributes:
-        cases: Random ik-check poses on top of the fixed set.
-        cycles: Cycles of the run.
+        cases: Random ik-check poses on top of the fixed set (0 to 1,000,000).
+        cycles: Cycles of the run (1 to 10,000).
         seed: Seed of the random poses and of the run.
-        timeout: Time per student [s].
+        timeout: The student's own time, in all [s] (see the module doc).
         ik_timeout: Time per IK call [s].
         memory_mb: Memory limit of each student's process [MB].
         workers: Students graded at once.
         min_success: The run's pass bar (share of ``cycles``).
+
+    Raises:
+        ConfigError: A value out of its range (one line naming the option).
     """
 
     cases: int = 1000
@@ -90,12 +118,35 @@ class GradeSettings:
     min_success: float = 0.8
 
     def __post_init__(self) -> None:
-        if self.memory_mb < MIN_MEMORY_MB:
+        def whole(v: object) -> bool:
+            return isinstance(v, int) and not isinstance(v, bool)
+
+        if not (whole(self.cases) and 0 <= self.cases <= MAX_RANDOM_CASES):
+            raise ConfigError(
+                f"--cases must be a whole number from 0 to {MAX_RANDOM_CASES:,}, got {self.cases}"
+            )
+        if not (whole(self.cycles) and 1 <= self.cycles <= MAX_CYCLES):
+            raise ConfigError(
+                f"--cycles must be a whole number from 1 to {MAX_CYCLES:,}, got {self.cycles}"
+            )
+        if not (whole(self.seed) and self.seed >= 0):
+            raise ConfigError(f"--seed must be a whole number >= 0, got {self.seed}")
+        if not (whole(self.memory_mb) and self.memory_mb >= MIN_MEMORY_MB):
             raise ConfigError(f"--memory must be at least {MIN_MEMORY_MB} MB, got {self.memory_mb}")
-        if not (self.timeout > 0 and self.ik_timeout > 0):
-            raise ConfigError("--timeout and --ik-timeout must be > 0 s")
-        if self.workers < 1:
+        for value in (self.timeout, self.ik_timeout):
+            if not (isinstance(value, int | float) and 0 < value < math.inf):
+                raise ConfigError("--timeout and --ik-timeout must be > 0 s")
+        if not (whole(self.workers) and self.workers >= 1):
             raise ConfigError(f"--workers must be at least 1, got {self.workers}")
+        if not (isinstance(self.min_success, int | float) and 0 <= self.min_success <= 1):
+            raise ConfigError(f"--min-success must be in [0, 1], got {self.min_success}")
+
+    @property
+    def own_time_cap(self) -> float:
+        """Time our own part of a student may take [s]: :data:`OWN_TIME_BASE` plus
+        :data:`OWN_TIME_PER_CYCLE` per cycle and :data:`OWN_TIME_PER_CASE` per random case
+        (430 s at the defaults, some 20 times what a correct student takes beside another)."""
+        return OWN_TIME_BASE + OWN_TIME_PER_CYCLE * self.cycles + OWN_TIME_PER_CASE * self.cases
 
     def config(self) -> dict[str, Any]:
         """The report's ``config``: what every student is graded with."""
@@ -105,70 +156,10 @@ class GradeSettings:
             "seed": self.seed,
             "timeout_s": self.timeout,
             "ik_timeout_s": self.ik_timeout,
+            "own_time_cap_s": self.own_time_cap,
             "memory_mb": self.memory_mb,
             "min_success": self.min_success,
         }
-
-
-def _folder_student(folder: Path) -> Student:
-    module = folder / STUDENT_MODULE
-    if module.is_file():
-        return Student(folder.name, f"{module}:{STUDENT_FUNCTION}")
-    files = [p for p in sorted(folder.glob("*.py")) if not p.name.startswith((".", "_"))]
-    if len(files) == 1:
-        return Student(folder.name, f"{files[0]}:{STUDENT_FUNCTION}")
-    found = f"{len(files)} .py files" if files else "no .py file"
-    return Student(folder.name, "", f"no {STUDENT_MODULE} in {folder} ({found})")
-
-
-def find_students(submissions: Sequence[str]) -> list[Student]:
-    """The students the SUBMISSION arguments name, in the order given (folders sorted by name).
-
-    Raises:
-        ConfigError: A SUBMISSION that does not exist, is not a ``.py`` file, a folder or a
-            SPEC, a folder with no student in it, or two students with one name.
-    """
-    students: list[Student] = []
-    for text in submissions:
-        path = Path(text)
-        if path.is_dir():
-            found = []
-            for p in sorted(path.iterdir()):
-                if p.name.startswith((".", "_")):
-                    continue
-                if p.is_dir():
-                    found.append(_folder_student(p))
-                elif p.suffix == ".py" and p.is_file():
-                    found.append(Student(p.stem, f"{p}:{STUDENT_FUNCTION}"))
-            if not found:
-                raise ConfigError(f"{text}: no student in this folder (no .py file, no subfolder)")
-            students.extend(found)
-        elif path.suffix == ".py":
-            if not path.is_file():
-                raise ConfigError(f"{text}: no such file")
-            students.append(Student(path.stem, f"{path}:{STUDENT_FUNCTION}"))
-        elif ":" in text:
-            where, _ = split_spec(text)
-            if where.endswith(".py") and not Path(where).is_file():
-                raise ConfigError(f"{text}: no such file {where}")
-            students.append(Student(Path(where).stem if where.endswith(".py") else where, text))
-        else:
-            raise ConfigError(f"{text}: not a folder, a .py file or a SPEC (path/file.py:function)")
-    seen: dict[str, int] = {}
-    for s in students:
-        seen[s.name] = seen.get(s.name, 0) + 1
-    twice = sorted(n for n, k in seen.items() if k > 1)
-    if twice:
-        raise ConfigError(f"two students named {twice[0]!r}: grade them in separate calls")
-    return students
-
-
-@dataclass
-class _Running:
-    student: Student
-    proc: subprocess.Popen[bytes]
-    started: float
-    out: Path
 
 
 @dataclass
@@ -180,6 +171,7 @@ class GradeResult:
         text: The leaderboard table.
         interrupted: The interrupt that stopped the grading, or None.
         html_path: The page written (None without ``--html``).
+        records: The students' records, in the order they finished (with ``plots``).
     """
 
     report: dict[str, Any]
@@ -194,19 +186,42 @@ class GradeResult:
         return self.interrupted is None and all(r["verdict"] == "pass" for r in self.records)
 
 
-def _lost(student: Student, why: str, seconds: float) -> dict[str, Any]:
-    """The record of a student whose grading process gave no record."""
-    return {
-        "name": student.name,
-        "spec": student.spec or None,
-        "verdict": "crashed",
-        "detail": why,
-        "ik_check": None,
-        "run": None,
-        "diagnosis": [],
-        "output": {"bytes": 0, "stdout": "", "stderr": ""},
-        "wall_time_s": {"ik_check": None, "run": None, "total": seconds},
-    }
+def _ended(code: int) -> str:
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    return f"exited with code {code}"
+
+
+def relevant_line(stderr: bytes) -> str:
+    """The line of a dead process's standard error that tells why it died: the last line of
+    its last traceback, else its last line that is not a Python warning ("" when none)."""
+    lines = [ln.strip() for ln in stderr.decode("utf-8", "replace").splitlines()]
+    starts = [i for i, ln in enumerate(lines) if ln.startswith("Traceback (most recent call")]
+    if starts:
+        lines = lines[starts[-1] :]
+    else:
+        lines = [ln for ln in lines if not _WARNING.match(ln)]
+    lines = [ln for ln in lines if ln]
+    return one_line(printable(lines[-1])) if lines else ""
+
+
+@dataclass(eq=False)
+class _Running:
+    """One grading process and what it sent so far."""
+
+    index: int
+    student: Student
+    proc: subprocess.Popen[bytes]
+    key: bytes
+    started: float
+    record: bytearray = field(default_factory=bytearray)
+    stderr: bytearray = field(default_factory=bytearray)
+    fds: list[int] = field(default_factory=list)
+    ended: float | None = None
+    too_big: bool = False
 
 
 def _kill(proc: subprocess.Popen[bytes]) -> None:
@@ -216,59 +231,177 @@ def _kill(proc: subprocess.Popen[bytes]) -> None:
         proc.wait(timeout=10.0)
 
 
-def _finish(run: _Running) -> dict[str, Any]:
-    """The record of a student whose process ended."""
-    seconds = time.monotonic() - run.started
-    try:
-        record: dict[str, Any] = json.loads(run.out.read_text())
-    except (OSError, ValueError):
-        err = run.out.with_suffix(".err")
-        tail = ""
-        with contextlib.suppress(OSError):
-            lines = err.read_text(errors="replace").strip().splitlines()
-            tail = f": {lines[-1]}" if lines else ""
-        code = run.proc.returncode
-        how = f"signal {-code}" if code is not None and code < 0 else f"exit code {code}"
-        return _lost(run.student, f"the grading process ended with {how}{tail}", seconds)
-    return record
+class _Pool:
+    """The grading processes running now: started, read and ended here.
 
+    Args:
+        settings: How every student is graded.
+        root: The temporary folder (scratch folders and plots).
+        plots: Whether the grading processes make the error plots (for the page).
+    """
 
-def _start(student: Student, settings: GradeSettings, root: Path, plots: bool) -> _Running:
-    scratch = root / "students" / student.name
-    scratch.mkdir(parents=True)
-    work = root / "grader"
-    work.mkdir(exist_ok=True)
-    job = StudentJob(
-        name=student.name,
-        spec=student.spec,
-        problem=student.problem,
-        cases=settings.cases,
-        cycles=settings.cycles,
-        seed=settings.seed,
-        timeout=settings.timeout,
-        ik_timeout=settings.ik_timeout,
-        memory_mb=settings.memory_mb,
-        min_success=settings.min_success,
-        scratch=str(scratch),
-        plots=str(work / f"{student.name}.plots") if plots else "",
-    )
-    job_path = work / f"{student.name}.job.json"
-    job_path.write_text(json.dumps(job.to_dict()))
-    out = work / f"{student.name}.json"
-    env = dict(os.environ, MUJOCO_GL="disable", PYTHONDONTWRITEBYTECODE="1")
-    env.setdefault("OMP_NUM_THREADS", "1")
-    env.setdefault("OPENBLAS_NUM_THREADS", "1")
-    with open(out.with_suffix(".err"), "wb") as err:
-        proc = subprocess.Popen(
-            [*STUDENT_COMMAND, str(job_path), str(out), str(os.getpid())],
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=err,
-            cwd=os.getcwd(),  # relative SPECs name files from where grade was called
-            env=env,
-            start_new_session=True,
+    def __init__(self, settings: GradeSettings, root: Path, plots: bool) -> None:
+        self.settings = settings
+        self.root = root
+        self.plots = plots
+        self.running: list[_Running] = []
+        self.selector = selectors.DefaultSelector()
+        self.cap = settings.timeout + settings.own_time_cap
+
+    def _job(self, index: int, student: Student) -> StudentJob:
+        s = self.settings
+        scratch = self.root / "students" / str(index)
+        scratch.mkdir(parents=True)
+        return StudentJob(
+            name=student.name,
+            spec=student.spec,
+            problem=student.problem,
+            cases=s.cases,
+            cycles=s.cycles,
+            seed=s.seed,
+            timeout=s.timeout,
+            ik_timeout=s.ik_timeout,
+            memory_mb=s.memory_mb,
+            min_success=s.min_success,
+            scratch=str(scratch),
+            plots=str(self.root / "plots" / str(index)) if self.plots else "",
         )
-    return _Running(student, proc, time.monotonic(), out)
+
+    def start(self, index: int, student: Student) -> None:
+        """Start the grading process of ``student`` (number ``index`` of the class).
+
+        Raises:
+            OSError: It could not be started (no memory, no file descriptors, ...).
+        """
+        job = self._job(index, student)
+        env = dict(os.environ, MUJOCO_GL="disable", PYTHONDONTWRITEBYTECODE="1")
+        env.setdefault("OMP_NUM_THREADS", "1")
+        env.setdefault("OPENBLAS_NUM_THREADS", "1")
+        key = secrets.token_bytes(32)
+        record_r, record_w = os.pipe()
+        try:
+            proc = subprocess.Popen(
+                [*STUDENT_COMMAND, str(record_w), str(os.getpid())],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE,
+                pass_fds=(record_w,),
+                cwd=os.getcwd(),  # relative SPECs name files from where grade was called
+                env=env,
+                start_new_session=True,
+            )
+        except BaseException:
+            os.close(record_r)
+            raise
+        finally:
+            os.close(record_w)
+        assert proc.stdin is not None and proc.stderr is not None
+        run = _Running(index, student, proc, key, time.monotonic())
+        self.running.append(run)
+        for fd, which in ((record_r, "record"), (proc.stderr.fileno(), "stderr")):
+            os.set_blocking(fd, False)
+            self.selector.register(fd, selectors.EVENT_READ, (run, which))
+            run.fds.append(fd)
+        with contextlib.suppress(OSError):  # one that died at once: its exit code says so
+            proc.stdin.write(json.dumps({"job": job.to_dict(), "key": key.hex()}).encode())
+        with contextlib.suppress(OSError):
+            proc.stdin.close()
+
+    def _close(self, run: _Running, fd: int | None = None) -> None:
+        for f in list(run.fds) if fd is None else [fd]:
+            self.selector.unregister(f)
+            run.fds.remove(f)
+            if run.proc.stderr is not None and f == run.proc.stderr.fileno():
+                run.proc.stderr.close()
+            else:
+                os.close(f)
+
+    def _read(self) -> None:
+        for key, _ in self.selector.select(POLL):
+            run, which = key.data
+            if key.fd not in run.fds:  # closed by an earlier event of this batch
+                continue
+            try:
+                chunk = os.read(key.fd, 1 << 16)
+            except BlockingIOError:
+                continue
+            except OSError:
+                chunk = b""
+            if not chunk:
+                self._close(run, key.fd)
+            elif which == "stderr":
+                run.stderr += chunk
+                del run.stderr[:-STDERR_KEPT]
+            else:
+                run.record += chunk
+                if len(run.record) > RECORD_LIMIT:
+                    run.too_big = True
+                    _kill(run.proc)
+                    self._close(run)
+
+    def poll(self) -> list[dict[str, Any]]:
+        """Read what came, for up to :data:`POLL` s; the records of the students that ended."""
+        if self.running:
+            self._read()
+        else:
+            time.sleep(POLL)
+        done = []
+        now = time.monotonic()
+        for run in list(self.running):
+            if run.proc.poll() is not None:
+                run.ended = run.ended or now
+                if run.fds and now - run.ended < EOF_GRACE:
+                    continue  # the last bytes of its pipes
+                try:
+                    record = self._finish(run)
+                except Exception as exc:  # no record stops the report: it is that student's
+                    why = f"the grader could not read its record: {type(exc).__name__}: {exc}"
+                    record = blank_record(run.student.name, "", "crashed", one_line(why))
+            elif now - run.started > self.cap:
+                _kill(run.proc)
+                record = blank_record(
+                    run.student.name,
+                    printable(run.student.spec),
+                    "timeout",
+                    f"still grading after {self.cap:g} s (--timeout {self.settings.timeout:g} s "
+                    f"+ our own part's cap {self.settings.own_time_cap:g} s); stopped",
+                )
+            else:
+                continue
+            self._close(run)
+            self.running.remove(run)
+            record["wall_time_s"]["total"] = now - run.started
+            done.append(record)
+        return done
+
+    def _finish(self, run: _Running) -> dict[str, Any]:
+        """The record of a student whose grading process ended (see the module doc)."""
+        name, spec = run.student.name, printable(run.student.spec)
+        code = run.proc.returncode
+        record: dict[str, Any] | None = None
+        if run.too_big:
+            why = f"the grading process sent more than {RECORD_LIMIT >> 20} MB as its record"
+        elif code != 0:
+            tail = relevant_line(bytes(run.stderr))
+            why = f"the grading process {_ended(code)}" + (f": {tail}" if tail else "")
+        else:
+            record, why = unseal(bytes(run.record), run.key)
+            if record is not None and (bad := record_problem(record)):
+                record, why = None, f"its record is unusable: {bad}"
+            why = f"the grading process exited with code 0, but {why}"
+        if record is None:
+            return blank_record(name, spec, "crashed", why)
+        record = clean(record)
+        record["name"], record["spec"] = name, spec or None  # the grader's, not the record's
+        return record
+
+    def stop(self) -> None:
+        """Kill every grading process still running and close its pipes."""
+        for run in self.running:
+            _kill(run.proc)
+            self._close(run)
+        self.running.clear()
+        self.selector.close()
 
 
 def grade(
@@ -281,7 +414,7 @@ def grade(
     """Grade ``students`` (see the module doc); write the report (and the page).
 
     Args:
-        students: What :func:`find_students` found.
+        students: What :func:`~kr210_sim.eval.roster.find_students` found.
         settings: How to grade them.
         report_path: JSON report path (None: not written).
         html_path: The self-contained HTML page (None: none).
@@ -299,52 +432,43 @@ def grade(
     for path in (report_path, html_path):
         if path is not None:
             check_writable(path)
-    inputs: dict[str, Path | None] = {
-        f"student {s.name}": Path(split_spec(s.spec)[0]) for s in students if s.spec
-    }
+    inputs = {f"student {s.name}": spec_file(s.spec) for s in students if s.spec}
     check_distinct({"--report": report_path, "--html": html_path}, inputs)
     wall0 = time.monotonic()
     root = Path(tempfile.mkdtemp(prefix="kr210_grade_"))
-    pending = list(students)
-    running: list[_Running] = []
+    pool = _Pool(settings, root, html_path is not None)
+    pending = list(enumerate(students))
     records: list[dict[str, Any]] = []
     interrupted: KeyboardInterrupt | None = None
     width = len(str(len(students)))
+
+    def finished(record: dict[str, Any]) -> None:
+        records.append(record)
+        out.write(f"[{len(records):>{width}}/{len(students)}] {student_line(record)}\n")
+        out.flush()
+
     try:
-        while pending or running:
-            while pending and len(running) < settings.workers:
-                running.append(_start(pending.pop(0), settings, root, html_path is not None))
-            time.sleep(POLL)
-            for run in list(running):
-                late = time.monotonic() - run.started > settings.timeout + GRACE
-                if run.proc.poll() is None and not late:
+        while pending or pool.running:
+            while pending and len(pool.running) < settings.workers:
+                index, student = pending.pop(0)
+                if student.problem:
+                    finished(blank_record(student.name, "", "error", student.problem))
                     continue
-                running.remove(run)
-                if late and run.proc.poll() is None:
-                    _kill(run.proc)
-                    record = _lost(
-                        run.student,
-                        f"still grading after {settings.timeout + GRACE:g} s (--timeout + "
-                        f"{GRACE:g} s); stopped",
-                        time.monotonic() - run.started,
-                    )
-                    record["verdict"] = "timeout"
-                else:
-                    record = _finish(run)
-                records.append(record)
-                out.write(f"[{len(records):>{width}}/{len(students)}] {student_line(record)}\n")
-                out.flush()
+                try:
+                    pool.start(index, student)
+                except OSError as exc:
+                    why = f"its grading process could not be started: {exc.strerror or exc}"
+                    finished(blank_record(student.name, printable(student.spec), "crashed", why))
+            for record in pool.poll():
+                finished(record)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (kr210_sim.util.interrupts)
         interrupted = exc
-        for run in running:
-            _kill(run.proc)
         sys.stderr.write(
             f"kr210_sim: interrupted ({signal_name(exc)}) after {len(records)} of "
             f"{len(students)} students; writing the report of those\n"
         )
     finally:
-        for run in running:
-            _kill(run.proc)
+        pool.stop()
         shutil.rmtree(root, ignore_errors=True)
     report = build_report(
         records, settings.config(), settings.workers, time.monotonic() - wall0, interrupted

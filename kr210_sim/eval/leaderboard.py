@@ -3,7 +3,8 @@
 Students are sorted by verdict (:data:`~kr210_sim.eval.student.VERDICTS`: pass, fail, timeout,
 crashed, error), then by cycles that succeeded, ik-check cases passed, the worst position error
 and the name. The page (``--html``) needs no network: its style is inline and its plots are PNG
-data URIs.
+data URIs; it has no script, and every text on it is escaped. The records given here are
+checked ones (:func:`kr210_sim.eval.record.record_problem`).
 """
 
 from __future__ import annotations
@@ -13,10 +14,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-from kr210_sim.eval.student import VERDICTS
+from kr210_sim.eval.record import VERDICTS, printable
 
 #: Captured output shown per student on the page [characters].
 PAGE_OUTPUT = 4000
+#: Longest name the terminal's table shows whole [characters].
+TABLE_NAME = 40
 _COLOURS = {
     "pass": "#1a7f37",
     "fail": "#b35900",
@@ -94,11 +97,15 @@ def _figures(r: dict[str, Any]) -> tuple[str, str, str, str]:
     return cases, pos, ori, cycles
 
 
+def _short_name(name: str) -> str:
+    return name if len(name) <= TABLE_NAME else name[: TABLE_NAME - 3] + "..."
+
+
 def student_line(r: dict[str, Any]) -> str:
     """One line per finished student (printed as each one ends)."""
     cases, _, _, cycles = _figures(r)
     return (
-        f"{r['name']:<20} {r['verdict']:<8} ik-check {cases:<10} cycles {cycles:<6} "
+        f"{_short_name(r['name']):<20} {r['verdict']:<8} ik-check {cases:<10} cycles {cycles:<6} "
         f"{r['wall_time_s']['total']:6.1f} s  {r['detail']}"
     )
 
@@ -112,8 +119,9 @@ def table(report: dict[str, Any]) -> str:
     ]
     for i, r in enumerate(report["students"], start=1):
         cases, pos, ori, cycles = _figures(r)
+        name = _short_name(r["name"])
         rows.append(
-            f"  {i:>3}  {r['name']:<20} {r['verdict']:<8} {cases:>10} {pos:>9} {ori:>11} "
+            f"  {i:>3}  {name:<20} {r['verdict']:<8} {cases:>10} {pos:>9} {ori:>11} "
             f"{cycles:>7} {r['wall_time_s']['total']:>7.1f}"
         )
         if r["verdict"] != "pass":
@@ -145,10 +153,10 @@ def _badge(verdict: str) -> str:
     return f'<span class="v" style="background:{colour}">{html.escape(verdict)}</span>'
 
 
-def _section(r: dict[str, Any], plots: dict[str, str]) -> str:
+def _section(i: int, r: dict[str, Any], plots: dict[str, str]) -> str:
     e = html.escape
     parts = [
-        f'<section id="{e(r["name"])}"><h2>{e(r["name"])} {_badge(r["verdict"])}</h2>',
+        f'<section id="student-{i}"><h2>{e(r["name"])} {_badge(r["verdict"])}</h2>',
         f"<p>{e(r['detail'])}</p>",
     ]
     if r.get("spec"):
@@ -169,12 +177,21 @@ def _section(r: dict[str, Any], plots: dict[str, str]) -> str:
         parts.append(f'<img alt="{e(name)}" src="data:image/png;base64,{data}">')
     run = r.get("run")
     if run:
-        parts.append(f"<p>run: {run['successes']}/{run['cycles']} cycles succeeded</p>")
+        ran = run.get("cycles_run", run["cycles"])
+        stopped = f" (stopped after {ran})" if ran != run["cycles"] else ""
+        parts.append(f"<p>run: {run['successes']}/{run['cycles']} cycles succeeded{stopped}</p>")
         for c in run["failed_cycles"]:
             parts.append(
                 f"<p>cycle {c['cycle']} (slot {c['slot']}): <b>{e(c['reason'])}</b> "
-                f"{e(c['detail'])}<br>film it: <code>{e(c['replay'])}</code></p>"
+                f"{e(c['detail'] or '')}<br>film it: <code>{e(c['replay'])}</code></p>"
             )
+    times = r["wall_time_s"]
+    own = times.get("student")
+    if isinstance(own, int | float):
+        parts.append(
+            f"<p>time: {own:.2f} s in the student's own code (--timeout), "
+            f"{times['total']:.1f} s in all</p>"
+        )
     out = r.get("output") or {}
     if out.get("bytes"):
         text = (out.get("stdout", "") + out.get("stderr", ""))[:PAGE_OUTPUT]
@@ -191,7 +208,7 @@ def page(report: dict[str, Any], records: list[dict[str, Any]]) -> str:
     for i, r in enumerate(report["students"], start=1):
         cases, pos, ori, cycles = _figures(r)
         rows.append(
-            f'<tr><td>{i}</td><td class="l"><a href="#{e(r["name"])}">{e(r["name"])}</a></td>'
+            f'<tr><td>{i}</td><td class="l"><a href="#student-{i}">{e(r["name"])}</a></td>'
             f'<td class="l">{_badge(r["verdict"])}</td><td>{cases}</td><td>{pos}</td>'
             f"<td>{ori}</td><td>{cycles}</td><td>{r['wall_time_s']['total']:.1f}</td></tr>"
         )
@@ -200,7 +217,9 @@ def page(report: dict[str, Any], records: list[dict[str, Any]]) -> str:
         '<tr><th>#</th><th class="l">student</th><th class="l">verdict</th><th>ik-check</th>'
         "<th>worst mm</th><th>worst mrad</th><th>cycles</th><th>time s</th></tr>"
     )
-    sections = "\n".join(_section(r, plots.get(r["name"], {})) for r in report["students"])
+    sections = "\n".join(
+        _section(i, r, plots.get(r["name"], {})) for i, r in enumerate(report["students"], start=1)
+    )
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
         f"<title>kr210_sim grade</title><style>{_STYLE}</style></head><body>\n"
@@ -213,7 +232,8 @@ def page(report: dict[str, Any], records: list[dict[str, Any]]) -> str:
 
 
 def write_html(path: Path, report: dict[str, Any], records: list[dict[str, Any]]) -> Path:
-    """Write :func:`page` to ``path`` atomically."""
+    """Write :func:`page` to ``path`` atomically (as UTF-8: a text that is no Unicode, a file
+    name's undecodable bytes, is written as ``\\xNN``)."""
     from kr210_sim.util.outputs import write_text_atomic
 
-    return write_text_atomic(path, page(report, records))
+    return write_text_atomic(path, printable(page(report, records)))

@@ -1,21 +1,29 @@
 """One student's grading: ik-check and a run with the student's IK in its sandbox, one record.
 
 :func:`grade_student` is what ``grade`` does per student. The grader runs it in a process of
-its own (``python -m kr210_sim.eval.student JOB OUT``: the job as JSON in, the record as JSON
-out), which starts the student's IK in a sandbox (:class:`~kr210_sim.robot.ik_sandbox.IkSandbox`,
-``stop=True``): the simulation and every check run here, the student's code only there. The
-first fault ends the student: a hang is ``timeout``, a dead process ``crashed``, an import or
+its own, the *grading process* (:data:`STUDENT_COMMAND`, :func:`main`), which starts the
+student's IK in a sandbox (:class:`~kr210_sim.robot.ik_sandbox.IkSandbox`, ``stop=True``): the
+simulation and every check run in the grading process, the student's code only in the sandbox.
+The first fault ends the student: a hang is ``timeout``, a dead process ``crashed``, an import or
 syntax error ``error``. Otherwise the verdict is ``pass`` when every ik-check case passes and the
 run reaches the pass bar, else ``fail``, with the figures and the mistakes
 :mod:`kr210_sim.eval.diagnose` recognises.
+
+The student's time limit (``timeout``, ``grade --timeout``) counts the student's own time only
+(:class:`StudentClock`): importing its module, and each call from the pose sent to the answer
+back. Our checks, planning and simulation do not count against it.
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
+import hashlib
 import io
 import json
 import math
+import os
+import re
 import shlex
 import sys
 import time
@@ -23,8 +31,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
+
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
+from kr210_sim.eval.record import VERDICTS, blank_record, seal
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.robot.kinematics import Kinematics
@@ -32,11 +44,33 @@ from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import run_session
-from kr210_sim.util.outputs import write_json_atomic
 from kr210_sim.util.processes import die_with_parent
 
-#: The verdicts, best first (the leaderboard's order).
-VERDICTS = ("pass", "fail", "timeout", "crashed", "error")
+__all__ = [
+    "STUDENT_COMMAND",
+    "VERDICTS",
+    "StudentClock",
+    "StudentJob",
+    "grade_student",
+    "main",
+    "replay_command",
+    "student_sandbox",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: The grading process: :func:`main` with ``RECORD_FD PARENT_PID`` (the job on its stdin).
+#: ``-c``, not ``-m``: running this module as ``__main__`` after the package imported it gave
+#: every grading process a runpy RuntimeWarning. Its working folder is first on ``sys.path``,
+#: as for ``python -m kr210_sim``: a module SPEC is found where ``--ik`` finds it.
+STUDENT_COMMAND = (
+    sys.executable,
+    "-c",
+    "import sys; from kr210_sim.eval.student import main; sys.exit(main(sys.argv[1:]))",
+)
+#: Longest student name a film-it command's video file is named by [characters].
+VIDEO_NAME = 64
+PR_SET_DUMPABLE = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,13 +78,13 @@ class StudentJob:
     """What to grade and how.
 
     Attributes:
-        name: The student's name (file or folder name).
+        name: The student's name (file or folder name, as shown).
         spec: SPEC of the student's ``solve`` ("" when ``problem`` says why there is none).
         problem: Why the submission cannot be graded at all ("" when it can).
         cases: Random ik-check poses on top of the fixed set.
         cycles: Cycles of the run.
         seed: Seed of the random poses and of the run.
-        timeout: Time for the whole student [s].
+        timeout: The student's own time, in all (:class:`StudentClock`) [s].
         ik_timeout: Time per IK call [s].
         memory_mb: Memory limit of the student's process (RLIMIT_AS) [MB].
         min_success: The run's pass bar (share of cycles).
@@ -76,12 +110,102 @@ class StudentJob:
         return asdict(self)
 
 
+class StudentClock:
+    """The student's IK, timed: the student's own time against its budget.
+
+    Counted: the wall time from starting the student's process to its module imported
+    (:meth:`start`), and for each call (:meth:`__call__`) from the pose sent to the answer
+    back. Nothing else counts: our checks, planning and simulation run between the calls.
+    Before each wait the sandbox's deadline is set to the time left, so the wait that uses the
+    budget up is cut where it runs out (the sandbox then stops the student: ``timeout``).
+
+    Args:
+        sandbox: The student's IK in its sandbox (``stop=True``).
+        budget: The student's time in all [s].
+    """
+
+    def __init__(self, sandbox: IkSandbox, budget: float) -> None:
+        self.sandbox = sandbox
+        self.budget = budget
+        self.import_time = 0.0
+        self.call_time = 0.0
+        self.calls = 0
+
+    @property
+    def used(self) -> float:
+        """The student's time so far [s]."""
+        return self.import_time + self.call_time
+
+    @property
+    def spent(self) -> bool:
+        """Whether the budget is used up (within 1 ms)."""
+        return self.used >= self.budget - 1e-3
+
+    def _arm(self) -> float:
+        self.sandbox.deadline = time.monotonic() + max(0.0, self.budget - self.used)
+        return time.monotonic()
+
+    def start(self) -> None:
+        """Start the student's process and import its module (see ``IkSandbox.start``)."""
+        t = self._arm()
+        try:
+            self.sandbox.start()
+        finally:
+            self.import_time += time.monotonic() - t
+
+    def __call__(self, T: FloatArray, q_ref: FloatArray) -> Any:
+        """``solve(T, q_ref)`` in the student's process (see ``IkSandbox.__call__``)."""
+        self.calls += 1
+        t = self._arm()
+        try:
+            return self.sandbox(T, q_ref)
+        finally:
+            self.call_time += time.monotonic() - t
+
+    def spent_detail(self) -> str:
+        """What used the budget up, one line."""
+        if self.calls == 0:
+            return f"importing it took longer than --timeout ({self.budget:g} s)"
+        return (
+            f"its code took longer than --timeout ({self.budget:g} s) in all: "
+            f"{self.import_time:.1f} s importing it, {self.call_time:.1f} s in {self.calls} calls"
+        )
+
+
+def shell_word(text: str) -> str:
+    """``text`` as one word of a POSIX shell command line; a file name's undecodable bytes
+    (surrogate escapes) as ``$'\\xNN'`` (bash, zsh, ksh), so the command names the same file."""
+    raw = os.fsencode(text)
+    try:
+        decoded = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        decoded = ""
+    if decoded == text and text.isprintable():
+        return shlex.quote(text)
+    escaped = "".join(
+        chr(b) if 0x20 <= b < 0x7F and b not in b"'\\" else f"\\x{b:02x}" for b in raw
+    )
+    return f"$'{escaped}'"
+
+
+def video_name(name: str) -> str:
+    """A file name for a student's video: letters, digits, ``.``, ``_``, ``-`` of its name
+    (others as ``_``), at most :data:`VIDEO_NAME` characters (a longer one cut, with a hash)."""
+    safe = re.sub(r"[^A-Za-z0-9._-]", "_", name)
+    if len(safe) <= VIDEO_NAME:
+        return safe
+    digest = hashlib.sha1(os.fsencode(name)).hexdigest()[:8]
+    return f"{safe[: VIDEO_NAME - 9]}_{digest}"
+
+
 def replay_command(job: StudentJob, cycle: int) -> str:
     """The command that runs the student's cycles 1..``cycle`` again and films them (the
-    cell carries over between cycles, so the failed one is filmed last)."""
-    video = f"videos/{job.name}_cycle{cycle}.mp4"
+    cell carries over between cycles, so the failed one is filmed last), as a shell line
+    run from where ``grade`` was called."""
+    spec = f"./{job.spec}" if job.spec.startswith("-") else job.spec  # not read as an option
+    video = f"videos/{video_name(job.name)}_cycle{cycle}.mp4"
     return (
-        f"python -m kr210_sim run --ik {shlex.quote(job.spec)} --ik-timeout {job.ik_timeout:g} "
+        f"python -m kr210_sim run --ik {shell_word(spec)} --ik-timeout {job.ik_timeout:g} "
         f"--cycles {cycle} --seed {job.seed} --video {shlex.quote(video)}"
     )
 
@@ -102,6 +226,8 @@ def _ik_figures(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _run_figures(job: StudentJob, results: list[CycleResult]) -> dict[str, Any]:
+    """The run's figures: ``cycles`` is the cycles asked for, ``cycles_run`` those that ran
+    (fewer when the student was stopped)."""
     failures: dict[str, int] = {}
     failed = []
     for r in results:
@@ -119,7 +245,8 @@ def _run_figures(job: StudentJob, results: list[CycleResult]) -> dict[str, Any]:
             }
         )
     return {
-        "cycles": len(results),
+        "cycles": job.cycles,
+        "cycles_run": len(results),
         "successes": sum(r.success for r in results),
         "failures": failures,
         "failed_cycles": failed,
@@ -143,44 +270,42 @@ def _verdict(job: StudentJob, ik: dict[str, Any], run: dict[str, Any]) -> tuple[
     return ("pass" if ik_ok and run_ok else "fail"), text
 
 
+def student_sandbox(job: StudentJob) -> IkSandbox:
+    """The sandbox the student's IK runs in (not started): ``job``'s memory limit and time per
+    call, its scratch folder, its output captured, the first fault a stop; the import may take
+    the student's whole time (``job.timeout``), which :class:`StudentClock` then bounds."""
+    return IkSandbox(
+        job.spec,
+        Limits(call_timeout=job.ik_timeout, memory_mb=job.memory_mb, load_timeout=job.timeout),
+        scratch=Path(job.scratch),
+        capture=True,
+        stop=True,
+    )
+
+
 def grade_student(job: StudentJob) -> dict[str, Any]:
     """Grade one student (see the module doc); the record the report keeps.
 
     Returns:
         ``name``, ``spec``, ``verdict``, ``detail``, ``ik_check`` and ``run`` figures (None when
-        that part did not finish), ``diagnosis``, the student's captured ``output`` and
-        ``wall_time_s``; with ``job.plots`` also ``plots`` (PNG files as base64, for the page).
+        that part did not start), ``diagnosis``, the student's captured ``output`` and
+        ``wall_time_s`` (``student``: its own time, :class:`StudentClock`); with ``job.plots``
+        also ``plots`` (PNG files as base64, for the page).
     """
     wall0 = time.monotonic()
-    record: dict[str, Any] = {
-        "name": job.name,
-        "spec": job.spec or None,
-        "verdict": "error",
-        "detail": job.problem,
-        "ik_check": None,
-        "run": None,
-        "diagnosis": [],
-        "output": {"bytes": 0, "stdout": "", "stderr": ""},
-        "wall_time_s": {"ik_check": None, "run": None, "total": 0.0},
-    }
+    record = blank_record(job.name, job.spec, "error", job.problem)
     if job.problem:
         return record
-    sandbox = IkSandbox(
-        job.spec,
-        Limits(call_timeout=job.ik_timeout, memory_mb=job.memory_mb),
-        scratch=Path(job.scratch),
-        capture=True,
-        stop=True,
-        deadline=wall0 + job.timeout,
-    )
-    ik = UserIk(job.spec, sandbox)
+    sandbox = student_sandbox(job)
+    clock = StudentClock(sandbox, job.timeout)
+    ik = UserIk(job.spec, clock)
     records: list[dict[str, Any]] = []
     cases: list[Case] = []
     runner: Runner | None = None
     stopped: SandboxStop | None = None
     stage = ""  # where a stop happened, for its detail
     try:
-        sandbox.start()
+        clock.start()
         kin = Kinematics(load_robot())
         cases = fixed_cases(kin) + random_cases(kin, job.cases, job.seed)
         t = time.monotonic()
@@ -214,8 +339,11 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         if stage == "ik-check" and 0 < sandbox.calls <= len(cases):
             n = sandbox.calls
             where = f"ik-check case {n} of {len(cases)}: {cases[n - 1].name}"
-        detail = f"{stopped.detail} ({where})" if where else stopped.detail
-        record["verdict"], record["detail"] = stopped.verdict, detail
+        what = stopped.detail
+        if stopped.verdict == "timeout" and clock.spent:
+            what = clock.spent_detail()
+        record["verdict"] = stopped.verdict
+        record["detail"] = f"{what} ({where})" if where else what
     else:
         record["verdict"], record["detail"] = _verdict(job, record["ik_check"], run)
     if records and len(records) == len(cases):
@@ -229,18 +357,33 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         "stdout": out.text(),
         "stderr": err.text(),
     }
+    record["wall_time_s"]["student"] = clock.used
     record["wall_time_s"]["total"] = time.monotonic() - wall0
     return record
 
 
+def _not_dumpable() -> None:
+    """Make this process non-dumpable (``PR_SET_DUMPABLE`` = 0): a process of the same user
+    that is not root (the student's) can then neither open this process's ``/proc`` files
+    (its pipes) nor trace it. Linux only; elsewhere nothing is set."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_DUMPABLE, 0, 0, 0, 0)
+
+
 def main(argv: list[str]) -> int:
-    """``python -m kr210_sim.eval.student JOB OUT PARENT``: grade the job in the JSON file JOB,
-    write the record to OUT atomically; die with process PARENT."""
-    die_with_parent(int(argv[2]))
-    job = StudentJob(**json.loads(Path(argv[0]).read_text()))
-    write_json_atomic(Path(argv[1]), grade_student(job))
+    """The grading process: ``RECORD_FD PARENT_PID``, the job on standard input as JSON
+    (``{"job": StudentJob fields, "key": hex}``). Grades the job and writes its record to the
+    pipe RECORD_FD as one sealed frame (:func:`~kr210_sim.eval.record.seal`); dies with
+    process PARENT_PID."""
+    fd, parent = int(argv[0]), int(argv[1])
+    die_with_parent(parent)
+    _not_dumpable()
+    os.set_inheritable(fd, False)  # no process started from here holds the record pipe
+    given = json.loads(sys.stdin.buffer.read())
+    key = bytes.fromhex(given["key"])
+    record = grade_student(StudentJob(**given["job"]))
+    with os.fdopen(fd, "wb") as pipe:
+        pipe.write(seal(record, key))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

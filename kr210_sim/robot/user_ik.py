@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.util
+import os
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -142,7 +143,7 @@ def _is_path(where: str) -> bool:
 def _import_file(path: Path, spec: str) -> Any:
     if not path.is_file():
         raise IkSpecError(f"--ik {spec!r}: no such file {path}")
-    digest = hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:12]
+    digest = hashlib.sha1(os.fsencode(path.resolve())).hexdigest()[:12]
     name = f"kr210_user_ik_{path.stem}_{digest}"
     mspec = importlib.util.spec_from_file_location(name, path)
     if mspec is None or mspec.loader is None:
