@@ -12,9 +12,9 @@ instead of a ``MUJOCO_LOG.TXT`` file in the current folder.
 
 The Python API (:mod:`kr210_sim.api`) is reached from the top level without importing it up
 front, so ``import kr210_sim`` stays light: ``kr210_sim.run(...)``, ``kr210_sim.evaluate(...)``,
-``kr210_sim.ik_check(...)`` and the report types load it on first use (the evaluation's
-machinery is the module :mod:`kr210_sim.eval.evaluate`). The Gymnasium environment is registered by
-``import kr210_sim.envs``.
+``kr210_sim.ik_check(...)``, ``kr210_sim.grade(...)`` and the report types load it on first use
+(the evaluation's machinery is the module :mod:`kr210_sim.eval.evaluate`). The Gymnasium
+environment is registered by ``import kr210_sim.envs``.
 """
 
 from __future__ import annotations
@@ -41,9 +41,11 @@ _API = frozenset(
         "run",
         "evaluate",
         "ik_check",
+        "grade",
         "Report",
         "RunReport",
         "EvalReport",
+        "GradeReport",
         "IkCheckReport",
         "RunInterrupted",
     }
@@ -64,6 +66,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "ConfigError",
     "EvalReport",
+    "GradeReport",
     "IkCheckReport",
     "Kr210SimError",
     "PlanningError",
@@ -75,6 +78,7 @@ __all__ = [
     "UnreachablePoseError",
     "__version__",
     "evaluate",
+    "grade",
     "ik_check",
     "run",
 ]

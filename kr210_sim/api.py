@@ -1,4 +1,5 @@
-"""The Python API: run, evaluate and grade an IK from a script, a notebook or a sweep.
+"""The Python API: run, evaluate and check an IK, and grade a class, from a script, a notebook or
+a sweep.
 
 The command line is a thin layer over these functions (``python -m kr210_sim run`` calls
 :func:`run`), so a call returns exactly the figures the command prints and the JSON it writes::
@@ -14,9 +15,9 @@ Errors are exceptions of :mod:`kr210_sim.errors` (a bad argument is a
 :class:`~kr210_sim.errors.ConfigError` with one sentence). Two outcomes keep the run's report
 on the exception, because the cycles that finished are worth having:
 
-* Ctrl-C or SIGTERM during the cycles raises :class:`RunInterrupted` (a
-  :class:`KeyboardInterrupt`) after the report of the finished cycles was written; its
-  ``report`` holds them.
+* Ctrl-C or SIGTERM during the cycles (or episodes, or students) raises
+  :class:`RunInterrupted` (a :class:`KeyboardInterrupt`) after the report of those finished
+  was written; its ``report`` holds them.
 * A video that could not be made raises :class:`~kr210_sim.errors.VideoFailedError` after the
   cycles ran and the report was written; its ``report`` holds the run.
 
@@ -28,7 +29,7 @@ from __future__ import annotations
 
 import copy
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -47,12 +48,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EvalReport",
+    "GradeReport",
     "IkCheckReport",
     "Report",
     "RunInterrupted",
     "RunReport",
     "as_user_ik",
     "evaluate",
+    "grade",
     "ik_check",
     "run",
 ]
@@ -247,13 +250,42 @@ class IkCheckReport(Report):
         return bool(s["passed"] == s["cases"])
 
 
+@dataclass(frozen=True)
+class GradeReport(Report):
+    """What :func:`grade` did: the leaderboard (``data`` is the JSON ``grade --report`` writes).
+
+    Attributes:
+        text: The table and verdict the CLI prints.
+        html_path: The page written (``html=``), or None.
+    """
+
+    text: str = ""
+    html_path: Path | None = None
+
+    @property
+    def students(self) -> tuple[Mapping[str, Any], ...]:
+        """One read-only record per student, in leaderboard order (``name``, ``verdict``,
+        ``detail``, ``ik_check``, ``run``, ``diagnosis``, ...)."""
+        return tuple(MappingProxyType(s) for s in self.data["students"])
+
+    @property
+    def verdicts(self) -> Mapping[str, str]:
+        """Each student's verdict by name (read-only)."""
+        return MappingProxyType({s["name"]: s["verdict"] for s in self.data["students"]})
+
+    @property
+    def passed(self) -> bool:
+        """Every student passed (and the grading ran to the end)."""
+        return bool(self.summary["all_passed"])
+
+
 class RunInterrupted(Interrupted):
-    """Ctrl-C or a termination signal stopped a run or an evaluation; the report of what
-    finished was written (when a path was given) and is in :attr:`report`.
+    """Ctrl-C or a termination signal stopped a run, an evaluation or a grading; the report of
+    what finished was written (when a path was given) and is in :attr:`report`.
 
     Args:
         signum: The signal's number.
-        report: The report of the cycles or episodes that finished.
+        report: The report of the cycles, episodes or students that finished.
     """
 
     def __init__(self, signum: int, report: Report) -> None:
@@ -487,3 +519,79 @@ def ik_check(
     report_path = _path(report, "report")
     result = run_check(user_ik, cases, seed, report_path, _path(plots, "plots"), progress)
     return IkCheckReport(result.report, report_path, result.text, result.plot_paths)
+
+
+def grade(
+    submissions: str | Path | Sequence[str | Path],
+    cases: int = 1000,
+    cycles: int = 10,
+    seed: int = 0,
+    timeout: float = 120.0,
+    ik_timeout: float = 2.0,
+    memory_mb: int = 1024,
+    workers: int | None = None,
+    min_success: float = 0.8,
+    report: str | Path | None = None,
+    html: str | Path | None = None,
+    out: TextIO | None = None,
+) -> GradeReport:
+    """Grade a class of IK solutions, each in its own sandbox (``python -m kr210_sim grade``).
+
+    Args:
+        submissions: A folder (each ``.py`` file or subfolder is a student), a ``.py`` file or
+            a SPEC, or a list of them.
+        cases: Random ik-check poses on top of the fixed set (0 to 1,000,000).
+        cycles: Cycles of each student's run (1 to 10,000).
+        seed: Seed of the poses and the runs (>= 0).
+        timeout: The student's own time, in all [s]: importing its module and answering the
+            calls (our checks and simulation do not count).
+        ik_timeout: Time per IK call [s].
+        memory_mb: Memory limit of each student's IK process [MB] (>= 256).
+        workers: Students graded at once (default: one per core).
+        min_success: The run's pass bar (share of ``cycles``).
+        report: Write the JSON report here (atomically), or None to only return it.
+        html: Write the self-contained leaderboard page here, or None.
+        out: Stream for a line per student as each one finishes (None: logger
+            ``kr210_sim.api``).
+
+    Returns:
+        The leaderboard's report: ``verdicts``, ``students`` (records in leaderboard order),
+        ``passed``.
+
+    Raises:
+        ConfigError: A bad argument, a submission that does not exist or names no student, or
+            an output that cannot be written (before any student is graded).
+        RunInterrupted: Ctrl-C or SIGTERM stopped the grading (the report of the students
+            finished was written; it is the exception's ``report``).
+    """
+    import os
+
+    from kr210_sim.eval.grade import GradeSettings, find_students
+    from kr210_sim.eval.grade import grade as grade_class
+
+    if isinstance(submissions, str | Path):
+        submissions = [submissions]
+    settings = GradeSettings(
+        cases=_whole(cases, "cases", 0),
+        cycles=_whole(cycles, "cycles", 1),
+        seed=_whole(seed, "seed", 0),
+        timeout=timeout,
+        ik_timeout=ik_timeout,
+        memory_mb=_whole(memory_mb, "memory_mb", 1),
+        workers=len(os.sched_getaffinity(0)) if workers is None else _whole(workers, "workers", 1),
+        min_success=min_success,
+    )
+    out = _stream(out, "out")
+    students = find_students(submissions)
+    report_path, html_path = _path(report, "report"), _path(html, "html")
+    result = grade_class(
+        students,
+        settings,
+        report_path,
+        html_path,
+        out=out if out is not None else _LogLines(),  # type: ignore[arg-type]
+    )
+    graded = GradeReport(result.report, report_path, text=result.text, html_path=result.html_path)
+    if result.interrupted is not None:
+        raise RunInterrupted(getattr(result.interrupted, "signum", 2), graded)
+    return graded

@@ -347,29 +347,35 @@ def ik_check(args: argparse.Namespace) -> int:
 
 def grade(args: argparse.Namespace) -> int:
     """``grade``: the leaderboard of a class; 0 when every student passed, 1 otherwise."""
-    import os
+    from kr210_sim.api import GradeReport, RunInterrupted, grade
 
-    from kr210_sim.eval.grade import GradeSettings, find_students, grade
-
-    settings = GradeSettings(
-        cases=args.cases,
-        cycles=args.cycles,
-        seed=args.seed,
-        timeout=args.timeout,
-        ik_timeout=args.ik_timeout,
-        memory_mb=args.memory,
-        workers=args.workers or len(os.sched_getaffinity(0)),
-        min_success=args.min_success,
-    )
-    result = grade(find_students(args.submissions), settings, args.report, args.html)
+    interrupted: RunInterrupted | None = None
+    try:
+        result = grade(
+            args.submissions,
+            cases=args.cases,
+            cycles=args.cycles,
+            seed=args.seed,
+            timeout=args.timeout,
+            ik_timeout=args.ik_timeout,
+            memory_mb=args.memory,
+            workers=args.workers,
+            min_success=args.min_success,
+            report=args.report,
+            html=args.html,
+            out=sys.stdout,
+        )
+    except RunInterrupted as exc:
+        interrupted, result = exc, exc.report  # type: ignore[assignment]
+    assert isinstance(result, GradeReport)
     out = sys.stdout
     out.write(result.text + "\n")
     out.write(f"  report: {args.report}\n")
     if result.html_path is not None:
         out.write(f"  page: {result.html_path}\n")
-    if result.interrupted is not None:
-        return exit_code(result.interrupted)
-    return 0 if result.all_passed else 1
+    if interrupted is not None:
+        return exit_code(interrupted)
+    return 0 if result.passed else 1
 
 
 def demos(args: argparse.Namespace) -> int:

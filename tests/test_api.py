@@ -219,3 +219,66 @@ def test_a_failed_video_raises_with_the_run(
     assert isinstance(report, RunReport) and report.video_error == str(exc.value)
     assert report.cycles[0].success and report.video_path is None
     assert json.loads(path.read_text())["summary"]["successes"] == 1
+
+
+def _timeless(value: Any) -> Any:
+    """``value`` without its wall-clock times (every ``wall_time*`` key)."""
+    if isinstance(value, dict):
+        return {k: _timeless(v) for k, v in value.items() if not k.startswith("wall_time")}
+    if isinstance(value, list):
+        return [_timeless(v) for v in value]
+    return value
+
+
+@pytest.mark.slow
+def test_grade_gives_the_verdicts_of_the_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    folder = tmp_path / "class"
+    folder.mkdir()
+    src = (README.parent / "examples" / "ik_dh.py").read_text()
+    (folder / "correct.py").write_text(src)
+    (folder / "no_offset.py").write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
+    (folder / "quits.py").write_text("import os\n\ndef solve(T, q):\n    os._exit(3)\n")
+    (folder / "syntax.py").write_text("def solve(T, q)\n    return q\n")
+    (folder / "BOB.PY").write_text(src)
+    options = ["--cases", "3", "--cycles", "1", "--seed", "2", "--workers", "2"]
+    cli_path = tmp_path / "cli.json"
+    assert main(["grade", str(folder), *options, "--report", str(cli_path)]) == 1
+    cli_out = capsys.readouterr().out
+    with caplog.at_level("INFO", logger="kr210_sim.api"):
+        report = kr210_sim.grade(folder, cases=3, cycles=1, seed=2, workers=2)
+    assert isinstance(report, kr210_sim.GradeReport) and report.path is None
+    from_cli = json.loads(cli_path.read_text())
+    assert _timeless(report.to_dict()) == _timeless(from_cli)
+    assert dict(report.verdicts) == {
+        "correct": "pass",
+        "no_offset": "fail",
+        "quits": "crashed",
+        "syntax": "error",
+        "BOB.PY": "error",
+    }
+    assert [s["name"] for s in report.students] == [s["name"] for s in from_cli["students"]]
+
+    def untimed(text: str) -> str:
+        return re.sub(r"\b\d+\.\d\b", "T", text)
+
+    assert not report.passed and untimed(report.text) in untimed(cli_out)
+    assert sorted(r.getMessage().split()[1] for r in caplog.records) == sorted(report.verdicts)
+    with pytest.raises(TypeError):
+        report.students[0]["verdict"] = "pass"  # type: ignore[index]
+
+
+def test_grade_refuses_bad_arguments_in_one_line(tmp_path: Path) -> None:
+    for kwargs, why in (
+        ({"submissions": tmp_path / "nope.py"}, "nope.py: no such file"),
+        ({"submissions": 3}, "submissions must be a list of paths or SPECs"),
+        ({"submissions": []}, "no submission"),
+        ({"submissions": [str(tmp_path), 3]}, "a submission must be a path or a SPEC"),
+        ({"submissions": "x.py:solve", "cases": 2_000_000}, "--cases must be a whole number"),
+        ({"submissions": "x.py:solve", "cycles": True}, "cycles must be a whole number >= 1"),
+        ({"submissions": "x.py:solve", "timeout": -1.0}, "--timeout and --ik-timeout"),
+    ):
+        with pytest.raises(ConfigError) as info:
+            kr210_sim.grade(**kwargs)  # type: ignore[arg-type]
+        assert why in str(info.value) and len(str(info.value).splitlines()) == 1
