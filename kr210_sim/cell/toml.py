@@ -166,7 +166,7 @@ def _within_joint_limits(path: Path | str, q_deg: tuple[float, ...]) -> None:
 
 
 def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
-    """Read a cell from TOML text.
+    """Read a cell from TOML text: each section by its reader, then the layout as a whole.
 
     Args:
         text: The file's text.
@@ -186,7 +186,31 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             f"{path}: unknown section or key {unknown[0]!r} "
             f"(expected: {', '.join(sorted(_SECTIONS))})"
         )
-    name = doc.get("name", path.stem)
+    name = _read_name(path, doc.get("name", path.stem))
+    for section in ("shelf", "bin"):
+        if section not in doc:
+            raise ConfigError(f"{path}: [{section}]: missing (required)")
+    shelf = _read_shelf(path, doc["shelf"])
+    bin_ = _read_bin(path, doc["bin"])
+    target, randomization = _read_target(path, doc.get("target", {}))
+    obstacles = _read_obstacles(path, doc.get("obstacles", []))
+    ready_q = _read_robot(path, doc["robot"]) if "robot" in doc else None
+    cell = CellConfig(
+        name=name,
+        shelf=shelf,
+        bin=bin_,
+        target=target,
+        randomization=randomization,
+        obstacles=obstacles,
+        ready_q_deg=ready_q,  # type: ignore[arg-type]
+        sha256=hashlib.sha256(text.encode()).hexdigest(),
+    )
+    _check_layout(path, cell)
+    return cell
+
+
+def _read_name(path: Path, name: Any) -> str:
+    """The cell's ``name`` (default: the file's stem)."""
     if (
         not isinstance(name, str)
         or not name
@@ -199,30 +223,31 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
             f"{path}: name: expected 1 to {MAX_NAME} printable characters without leading or "
             f"trailing spaces, got {shown!r}{'...' if shown is not name else ''}"
         )
-    for section in ("shelf", "bin"):
-        if section not in doc:
-            raise ConfigError(f"{path}: [{section}]: missing (required)")
+    return name
 
-    s = _Reader(path, "[shelf]", doc["shelf"], _SHELF_KEYS)
+
+def _read_row_pitch(s: _Reader, rows: int) -> tuple[float, ...]:
+    """``[shelf] row_pitch``: one number for every gap, or a list of ``rows`` - 1 [m]."""
+    raw = s.table.get("row_pitch", 0.0 if rows == 1 else None)
+    if isinstance(raw, list):
+        if len(raw) != rows - 1:
+            s.fail("row_pitch", f"a positive number or a list of {rows - 1} (rows - 1) [m]", raw)
+        return tuple(s.vector("row_pitch", rows - 1, positive=True))
+    pitch = s.number(
+        "row_pitch", 0.0 if rows == 1 else None, (MIN_LENGTH if rows > 1 else 0.0, MAX_LENGTH)
+    )
+    return (pitch,) * (rows - 1)
+
+
+def _read_shelf(path: Path, table: Any) -> ShelfSpec:
+    """The ``[shelf]`` section."""
+    s = _Reader(path, "[shelf]", table, _SHELF_KEYS)
     rows = s.integer("rows", 1, MAX_GRID)
     columns = s.integer("columns", 1, MAX_GRID)
-    raw_pitch = s.table.get("row_pitch", 0.0 if rows == 1 else None)
-    if isinstance(raw_pitch, list):
-        if len(raw_pitch) != rows - 1:
-            s.fail(
-                "row_pitch", f"a positive number or a list of {rows - 1} (rows - 1) [m]", raw_pitch
-            )
-        row_pitch = tuple(s.vector("row_pitch", rows - 1, positive=True))
-    else:
-        pitch = s.number(
-            "row_pitch",
-            0.0 if rows == 1 else None,
-            (MIN_LENGTH if rows > 1 else 0.0, MAX_LENGTH),
-        )
-        row_pitch = (pitch,) * (rows - 1)
+    row_pitch = _read_row_pitch(s, rows)
     bottom = s.number("bottom")
     top = bottom + sum(row_pitch)
-    shelf = _build(
+    shelf: ShelfSpec = _build(
         path,
         "[shelf]",
         lambda: ShelfSpec(
@@ -242,8 +267,12 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         s.fail("height", f"more than the top board's top + 0.3 m ({top + 0.3:.3f} m)", shelf.height)
     if shelf.slot_inset >= shelf.depth:
         s.fail("slot_inset", f"less than the depth ({shelf.depth} m)", shelf.slot_inset)
+    return shelf
 
-    b = _Reader(path, "[bin]", doc["bin"], _BIN_KEYS)
+
+def _read_bin(path: Path, table: Any) -> BinSpec:
+    """The ``[bin]`` section."""
+    b = _Reader(path, "[bin]", table, _BIN_KEYS)
     size = b.vector("size", 3, positive=True)
     wall = b.number("wall", 0.06)
     floor_top = b.number("floor_top", 0.05)
@@ -251,14 +280,17 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         b.fail("size", f"outer x and y larger than two walls ({2 * wall:g} m) + 0.1 m", size)
     if floor_top >= size[2]:
         b.fail("floor_top", f"below the rim ({size[2]:g} m)", floor_top)
-    bin_ = BinSpec(
+    return BinSpec(
         position=tuple(b.vector("position", 2)),  # type: ignore[arg-type]
         size=tuple(size),  # type: ignore[arg-type]
         wall=wall,
         floor_top=floor_top,
     )
 
-    t = _Reader(path, "[target]", doc.get("target", {}), _TARGET_KEYS)
+
+def _read_target(path: Path, table: Any) -> tuple[TargetSpec, RandomizationSpec]:
+    """The ``[target]`` section and its ``[target.randomize]`` table."""
+    t = _Reader(path, "[target]", table, _TARGET_KEYS)
     d = TargetSpec()
     target = TargetSpec(
         radius=t.number("radius", d.radius),
@@ -278,15 +310,16 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         mass=r.range_("mass", dr.mass, MASS_RANGE),
         friction=r.range_("friction", dr.friction, FRICTION_RANGE),
     )
+    return target, randomization
 
-    raw_obstacles = doc.get("obstacles", [])
-    if not isinstance(raw_obstacles, list):
-        raise ConfigError(
-            f"{path}: obstacles: expected [[obstacles]] tables, got {raw_obstacles!r}"
-        )
+
+def _read_obstacles(path: Path, raw: Any) -> tuple[ObstacleSpec, ...]:
+    """The ``[[obstacles]]`` tables."""
+    if not isinstance(raw, list):
+        raise ConfigError(f"{path}: obstacles: expected [[obstacles]] tables, got {raw!r}")
     obstacles = []
-    for i, raw in enumerate(raw_obstacles, start=1):
-        o = _Reader(path, f"[[obstacles]] #{i}", raw, _OBSTACLE_KEYS)
+    for i, table in enumerate(raw, start=1):
+        o = _Reader(path, f"[[obstacles]] #{i}", table, _OBSTACLE_KEYS)
         obstacles.append(
             ObstacleSpec(
                 position=tuple(o.vector("position", 3)),  # type: ignore[arg-type]
@@ -294,33 +327,21 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
                 yaw_deg=o.number("yaw_deg", 0.0, YAW_RANGE, "[deg]"),
             )
         )
-    ready_q = None
-    if "robot" in doc:
-        rb = _Reader(path, "[robot]", doc["robot"], _ROBOT_KEYS)
-        if "ready_q" in rb.table:
-            q = rb.table["ready_q"]
-            ok = isinstance(q, list) and len(q) == 6
-            ok = ok and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in q
-            )
-            if not ok or max(abs(v) for v in q) > 360.0:
-                rb.fail("ready_q", "a list of 6 joint angles within +-360 [deg]", q)
-            ready_q = tuple(float(v) for v in q)
-            _within_joint_limits(path, ready_q)
-    sha = hashlib.sha256(text.encode()).hexdigest()
-    cell = CellConfig(
-        name=name,
-        shelf=shelf,
-        bin=bin_,
-        target=target,
-        randomization=randomization,
-        obstacles=tuple(obstacles),
-        ready_q_deg=ready_q,  # type: ignore[arg-type]
-        sha256=sha,
-    )
-    _check_layout(path, cell)
-    return cell
+    return tuple(obstacles)
+
+
+def _read_robot(path: Path, table: Any) -> tuple[float, ...] | None:
+    """The ``[robot]`` section: its ``ready_q`` [deg], or None when it sets none."""
+    rb = _Reader(path, "[robot]", table, _ROBOT_KEYS)
+    if "ready_q" not in rb.table:
+        return None
+    q = rb.table["ready_q"]
+    ok = isinstance(q, list) and len(q) == 6 and all(_is_number(v) for v in q)
+    if not ok or max(abs(v) for v in q) > 360.0:
+        rb.fail("ready_q", "a list of 6 joint angles within +-360 [deg]", q)
+    ready_q = tuple(float(v) for v in q)
+    _within_joint_limits(path, ready_q)
+    return ready_q
 
 
 def _build(path: Path, section: str, make: Callable[[], Any]) -> Any:
