@@ -63,6 +63,26 @@ class Confinement(Protocol):
         """What protects the user's process, for reports (``{"confinement": name, ...}``)."""
         ...
 
+    @property
+    def own_pids(self) -> bool:
+        """The user's process sees pids of its own (a PID namespace): the parent's pid it is
+        given must be 0 ("do not compare")."""
+        ...
+
+    @property
+    def process_rlimit(self) -> int | None:
+        """``RLIMIT_NPROC`` the user's process must set itself, or None."""
+        ...
+
+    def returncode(self, code: int | None) -> int | None:
+        """The user's process's exit (``Popen.returncode`` form: -N for signal N) from what the
+        started process's ``returncode`` is (a wrapper may encode it)."""
+        ...
+
+    def findings(self) -> list[str]:
+        """What it stopped so far, one line each, as the kernel saw it (none here)."""
+        ...
+
 
 def popen(launch: Launch, argv: tuple[str, ...] | None = None) -> subprocess.Popen[bytes]:
     """``launch`` started in a session and process group of its own (``argv`` in place of its
@@ -94,6 +114,8 @@ class Unconfined:
     that group (``setsid``) is not killed with it."""
 
     name = "none"
+    own_pids = False
+    process_rlimit = None
 
     def popen(self, launch: Launch) -> subprocess.Popen[bytes]:
         """Start ``launch`` in a session of its own."""
@@ -106,3 +128,12 @@ class Unconfined:
     def describe(self) -> dict[str, Any]:
         """``{"confinement": "none"}``."""
         return {"confinement": self.name}
+
+    @staticmethod
+    def returncode(code: int | None) -> int | None:
+        """``code`` as it is."""
+        return code
+
+    def findings(self) -> list[str]:
+        """Nothing: no jail, no findings."""
+        return []

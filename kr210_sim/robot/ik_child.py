@@ -16,6 +16,7 @@ answers trusts none of them (:mod:`kr210_sim.robot.ik_wire`).
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 from typing import Any
@@ -65,18 +66,43 @@ def reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
     return {"q": arr.reshape(-1).tolist(), "shape": list(arr.shape)}
 
 
+#: CPU time past ``cpu_s`` before SIGKILL follows SIGXCPU [s].
+CPU_GRACE = 1
+
+
+def _cap(kind: int, value: int) -> None:
+    """Set limit ``kind`` (soft and hard) to ``value``, or to the hard limit when that is lower
+    (a process may only lower its hard limits)."""
+    import resource
+
+    hard = resource.getrlimit(kind)[1]
+    if hard != resource.RLIM_INFINITY:
+        value = min(value, hard)
+    resource.setrlimit(kind, (value, value))
+
+
 def set_limits(limits: dict[str, Any], parent: int) -> None:
-    """Die with ``parent``; no core dumps; files of at most ``file_mb``; ``memory_mb`` of address
-    space when given."""
+    """Die with ``parent``; no core dumps; files of at most ``file_mb``; and when given:
+    ``memory_mb`` of address space, ``cpu_s`` seconds of CPU time (SIGXCPU, then SIGKILL
+    :data:`CPU_GRACE` s later), ``open_files`` file descriptors, ``processes`` processes of
+    this user (``RLIMIT_NPROC``: in a user namespace of its own, those of the jail). Soft
+    limits are set to the hard ones, so the user's code cannot raise them."""
     import resource
 
     die_with_parent(parent)
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    size = int(limits["file_mb"]) << 20
-    resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+    _cap(resource.RLIMIT_CORE, 0)
+    _cap(resource.RLIMIT_FSIZE, int(limits["file_mb"]) << 20)
     if limits.get("memory_mb"):
-        size = int(limits["memory_mb"]) << 20
-        resource.setrlimit(resource.RLIMIT_AS, (size, size))
+        _cap(resource.RLIMIT_AS, int(limits["memory_mb"]) << 20)
+    if limits.get("cpu_s"):
+        seconds = max(1, math.ceil(float(limits["cpu_s"])))
+        hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+        top = seconds + CPU_GRACE if hard == resource.RLIM_INFINITY else min(hard, seconds)
+        resource.setrlimit(resource.RLIMIT_CPU, (min(seconds, top), top))
+    if limits.get("open_files"):
+        _cap(resource.RLIMIT_NOFILE, int(limits["open_files"]))
+    if limits.get("processes"):
+        _cap(resource.RLIMIT_NPROC, int(limits["processes"]))
 
 
 def _load_failure(exc: IkSpecError) -> dict[str, Any]:

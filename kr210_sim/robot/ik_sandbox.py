@@ -71,6 +71,8 @@ DEFAULT_MEMORY_MB = 1024
 MIN_MEMORY_MB = 256
 #: Largest file the user's process may write (RLIMIT_FSIZE) [MB].
 FILE_LIMIT_MB = 64
+#: Most file descriptors the user's process may hold (RLIMIT_NOFILE).
+OPEN_FILES = 256
 #: Time the user's module has to import (bounded by ``deadline``) [s].
 LOAD_TIMEOUT = 30.0
 #: Bytes of output kept per process: the first and the last half of it.
@@ -110,6 +112,9 @@ class Limits:
         call_timeout: Time a call may take before it counts as hanging [s]; None: no limit.
         memory_mb: Address space of the process (RLIMIT_AS) [MB]; None: no limit.
         load_timeout: Time the import of the user's module may take [s].
+        cpu_s: CPU time of the process (RLIMIT_CPU; each process it starts has as much) [s];
+            None: no limit.
+        open_files: File descriptors it may hold (RLIMIT_NOFILE).
 
     Raises:
         ConfigError: A time limit that is not > 0, or less memory than :data:`MIN_MEMORY_MB`.
@@ -118,10 +123,16 @@ class Limits:
     call_timeout: float | None = 2.0
     memory_mb: int | None = DEFAULT_MEMORY_MB
     load_timeout: float = LOAD_TIMEOUT
+    cpu_s: float | None = None
+    open_files: int = OPEN_FILES
 
     def __post_init__(self) -> None:
         if self.call_timeout is not None and not self.call_timeout > 0:
             raise ConfigError(f"call_timeout must be > 0 s, got {self.call_timeout}")
+        if self.cpu_s is not None and not self.cpu_s > 0:
+            raise ConfigError(f"cpu_s must be > 0 s, got {self.cpu_s}")
+        if self.open_files < 32:
+            raise ConfigError(f"open_files must be at least 32, got {self.open_files}")
         if self.memory_mb is not None and self.memory_mb < MIN_MEMORY_MB:
             raise ConfigError(f"memory_mb must be at least {MIN_MEMORY_MB}, got {self.memory_mb}")
 
@@ -260,9 +271,16 @@ class IkSandbox:
 
     def launch(self, req_r: int, ans_w: int) -> Launch:
         """The user's process as it is to be started, with the pipe ends it keeps."""
-        limits = {"memory_mb": self.limits.memory_mb, "file_mb": FILE_LIMIT_MB}
+        limits: dict[str, Any] = {
+            "memory_mb": self.limits.memory_mb,
+            "file_mb": FILE_LIMIT_MB,
+            "cpu_s": self.limits.cpu_s,
+            "open_files": self.limits.open_files,
+            "processes": self.confinement.process_rlimit,
+        }
+        parent = 0 if self.confinement.own_pids else os.getpid()
         argv: tuple[str, ...] = (sys.executable, "-B", "-m", CHILD_MODULE, self._child_spec())
-        argv += (str(req_r), str(ans_w), str(os.getpid()), json.dumps(limits))
+        argv += (str(req_r), str(ans_w), str(parent), json.dumps(limits))
         return Launch(
             argv=argv,
             env=self._environment(),
@@ -359,15 +377,18 @@ class IkSandbox:
         code = None
         if proc is not None:
             with contextlib.suppress(subprocess.TimeoutExpired):
-                code = proc.wait(timeout=2.0)
+                code = self.confinement.returncode(proc.wait(timeout=2.0))
         if message is not None and "exit" in message:
             what = f"called sys.exit({message['exit']!r}) {when}"
         elif message is not None and message.get("memory"):
             what = f"ran out of memory {when} (limit {self.limits.memory_mb} MB)"
         else:
             what = f"the IK process {_how_it_ended(code)} {when}"
-            if code == -signal.SIGKILL:
-                what += " (out of memory?)"
+            if code == -signal.SIGXCPU:
+                what += f" (its CPU time ran out: limit {self.limits.cpu_s:g} s)"
+            elif code == -signal.SIGKILL:
+                cpu = " or past its CPU time limit" if self.limits.cpu_s is not None else ""
+                what += f" (out of memory{cpu}?)"
         self._fault("crashed", what)
 
     # ------------------------------------------------------------------ calls
@@ -404,11 +425,11 @@ class IkSandbox:
     @staticmethod
     def _cleanup(state: dict[str, Any], confinement: Confinement) -> None:
         proc: subprocess.Popen[bytes] | None = state.get("proc")
+        if proc is not None:  # first, while the process still waits on its pipe: the
+            confinement.end(proc)  # confinement sees what it left running, not its exit
         for fd in state.get("fds", ()):
             with contextlib.suppress(OSError):
                 os.close(fd)
-        if proc is not None:
-            confinement.end(proc)
 
     def close_process(self) -> None:
         """Kill the user's process group (if running) and collect its output threads."""

