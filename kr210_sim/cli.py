@@ -17,8 +17,9 @@ import argparse
 import logging
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
@@ -124,6 +125,18 @@ def _port(text: str) -> int:
     return value
 
 
+# One function per command adds that command's parser (``_add_<command>``, listed in
+# ``_COMMANDS`` in the order ``--help`` shows them); the ``_add_*_option(s)`` helpers add the
+# options several commands share, each command naming its own help text where it differs.
+
+#: The object ``add_subparsers`` returns, that each ``_add_<command>`` adds its parser to.
+_Commands: TypeAlias = "argparse._SubParsersAction[_Parser]"
+
+
+def _add_scene_option(cmd: argparse.ArgumentParser) -> None:
+    cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+
+
 def _add_cell_option(cmd: argparse.ArgumentParser, instead: str = "--scene") -> None:
     cmd.add_argument(
         "--cell",
@@ -134,10 +147,43 @@ def _add_cell_option(cmd: argparse.ArgumentParser, instead: str = "--scene") -> 
     )
 
 
-def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT) -> None:
+def _add_seed_option(cmd: argparse.ArgumentParser, of: str) -> None:
+    """``--seed`` (default 0); ``of`` completes its help ("seed of ...")."""
+    cmd.add_argument("--seed", type=_seed, default=0, help=f"seed of {of} (0)")
+
+
+def _add_report_option(cmd: argparse.ArgumentParser, default: Path, label: str) -> None:
+    """``--report``, its help ``label`` followed by the default path."""
+    cmd.add_argument("--report", type=Path, default=default, help=f"{label} ({default})")
+
+
+def _add_min_success_option(cmd: argparse.ArgumentParser, default: float, help: str) -> None:
+    cmd.add_argument("--min-success", type=_fraction, default=default, help=help)
+
+
+def _add_workers_option(cmd: argparse.ArgumentParser, help: str) -> None:
+    cmd.add_argument("--workers", type=_positive_int, default=None, help=help)
+
+
+def _add_plots_option(cmd: argparse.ArgumentParser) -> None:
+    cmd.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
+
+
+def _add_ik_options(
+    cmd: argparse.ArgumentParser, ik: str, timeout: str, required: bool = False
+) -> None:
+    """``--ik SPEC`` and ``--ik-timeout S``, with the help texts ``ik`` and ``timeout``."""
+    if required:
+        cmd.add_argument("--ik", required=True, metavar="SPEC", help=ik)
+    else:
+        cmd.add_argument("--ik", default=None, metavar="SPEC", help=ik)
+    cmd.add_argument("--ik-timeout", type=_seconds, default=None, metavar="S", help=timeout)
+
+
+def _add_run_options(cmd: argparse.ArgumentParser, report: Path) -> None:
     """The options ``run`` and ``view`` share."""
     cmd.add_argument("--cycles", type=_cycles, default=10, help="cycles to run (10)")
-    cmd.add_argument("--seed", type=_seed, default=0, help="seed of the run's generator (0)")
+    _add_seed_option(cmd, "the run's generator")
     cmd.add_argument(
         "--slot",
         type=_slot,
@@ -149,27 +195,14 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path = DEFAULT_REPORT
         action="store_true",
         help="randomise target pose, size, mass and friction per cycle",
     )
-    cmd.add_argument("--report", type=Path, default=report, help=f"JSON report path ({report})")
-    cmd.add_argument(
-        "--min-success",
-        type=_fraction,
-        default=0.8,
-        help="pass bar: exit 1 below this success rate (0.8)",
-    )
-    cmd.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
+    _add_report_option(cmd, report, "JSON report path")
+    _add_min_success_option(cmd, 0.8, "pass bar: exit 1 below this success rate (0.8)")
+    _add_scene_option(cmd)
     _add_cell_option(cmd)
-    cmd.add_argument(
-        "--ik",
-        default=None,
-        metavar="SPEC",
-        help="plan with your IK: package.module:function or path/to/file.py:function",
-    )
-    cmd.add_argument(
-        "--ik-timeout",
-        type=_seconds,
-        default=None,
-        metavar="S",
-        help="run --ik in its own process; no answer within S seconds: that cycle is ik_failed",
+    _add_ik_options(
+        cmd,
+        ik="plan with your IK: package.module:function or path/to/file.py:function",
+        timeout="run --ik in its own process; no answer within S seconds: that cycle is ik_failed",
     )
 
 
@@ -193,57 +226,48 @@ def _add_video_options(cmd: argparse.ArgumentParser, camera: str, fps: str) -> N
     )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The CLI's argument parser."""
-    parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
-    parser.add_argument("--version", action="version", version=f"kr210_sim {__version__}")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log what the cell does")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
-    sub.required = True
-
-    run = sub.add_parser("run", help="run and score pick-and-place cycles")
-    _add_run_options(run)
-    run.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
-    _add_video_options(run, "overview", "30")
-    run.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
-    run.add_argument(
+def _add_run(sub: _Commands) -> None:
+    cmd = sub.add_parser("run", help="run and score pick-and-place cycles")
+    _add_run_options(cmd, DEFAULT_REPORT)
+    cmd.add_argument("--video", type=Path, default=None, help="write an MP4 of the run here")
+    _add_video_options(cmd, "overview", "30")
+    _add_plots_option(cmd)
+    cmd.add_argument(
         "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
     )
-    run.add_argument(
+    cmd.add_argument(
         "--record-rate",
         type=_fps,
         default=None,
         help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})",
     )
-    run.add_argument(
+    cmd.add_argument(
         "--render-workers",
         type=_positive_int,
         default=None,
         help="processes rendering the video (one per core; 1: render in this process)",
     )
-    run.set_defaults(func=commands.run)
+    cmd.set_defaults(func=commands.run)
 
-    rp = sub.add_parser("replay", help="render a recording (run --record) to MP4")
-    rp.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
-    rp.add_argument("--video", type=Path, default=None, help="MP4 path (default: REC with .mp4)")
-    _add_video_options(rp, "the run's, else overview", "the recording's rate")
-    rp.add_argument(
-        "--workers",
-        type=_positive_int,
-        default=None,
-        help="render processes (one per core; 1: render in this process)",
-    )
-    rp.add_argument(
+
+def _add_replay(sub: _Commands) -> None:
+    cmd = sub.add_parser("replay", help="render a recording (run --record) to MP4")
+    cmd.add_argument("recording", type=Path, metavar="REC", help="the recording (.npz)")
+    cmd.add_argument("--video", type=Path, default=None, help="MP4 path (default: REC with .mp4)")
+    _add_video_options(cmd, "the run's, else overview", "the recording's rate")
+    _add_workers_option(cmd, "render processes (one per core; 1: render in this process)")
+    cmd.add_argument(
         "--scene",
         type=Path,
         default=None,
         help="MJCF scene the recording was made with (default: the one it names, else ours)",
     )
-    rp.set_defaults(func=commands.replay)
+    cmd.set_defaults(func=commands.replay)
 
-    view = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
-    _add_run_options(view, report=DEFAULT_VIEW_REPORT)
-    where = view.add_mutually_exclusive_group()
+
+def _add_viewer_options(cmd: argparse.ArgumentParser) -> None:
+    """``view``'s own options: where it shows, how and what."""
+    where = cmd.add_mutually_exclusive_group()
     where.add_argument(
         "--web",
         action="store_true",
@@ -252,197 +276,203 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument(
         "--window", action="store_true", help="open a native window (needs a display)"
     )
-    view.add_argument(
+    cmd.add_argument(
         "--port", type=_port, default=0, help="web viewer port (0: first free from 8080)"
     )
-    view.add_argument(
+    cmd.add_argument(
         "--host",
         default="127.0.0.1",
         help="interface to listen on (127.0.0.1); 0.0.0.0 exposes the unauthenticated viewer",
     )
-    view.add_argument(
+    cmd.add_argument(
         "--camera", default=None, help="start on a named camera (default: orbit from overview)"
     )
-    view.add_argument(
+    cmd.add_argument(
         "--demo", action="store_true", help="pause before every phase until Next (key N)"
     )
-    view.add_argument(
+    cmd.add_argument(
         "--joints", action="store_true", help="no task: pose the arm with six joint sliders"
     )
-    view.add_argument(
+    cmd.add_argument(
         "--quality",
         choices=("full", "fast"),
         default="full",
         help="fast: no shadows, reflections, haze or post-processing (for software WebGL)",
     )
-    view.add_argument(
+    cmd.add_argument(
         "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
     )
-    view.add_argument(
+
+
+def _add_view(sub: _Commands) -> None:
+    cmd = sub.add_parser("view", help="watch the cycles live in MuJoCo Studio (browser or window)")
+    _add_run_options(cmd, DEFAULT_VIEW_REPORT)
+    _add_viewer_options(cmd)
+    cmd.add_argument(
         "--replay",
         type=Path,
         default=None,
         metavar="REC",
         help="play a recording (run --record) instead of running the cycles",
     )
-    view.add_argument(
+    cmd.add_argument(
         "--exit-when-done",
         action="store_true",
         help="exit when the cycles are done (default: keep showing until Ctrl-C)",
     )
-    view.set_defaults(func=commands.view)
+    cmd.set_defaults(func=commands.view)
 
-    ev = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
-    ev.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
-    ev.add_argument(
-        "--workers",
-        type=_positive_int,
-        default=None,
-        help="local processes (1), or Ray tasks in flight (the cluster's CPUs)",
-    )
-    ev.add_argument(
+
+def _add_evaluate(sub: _Commands) -> None:
+    cmd = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
+    cmd.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
+    _add_workers_option(cmd, "local processes (1), or Ray tasks in flight (the cluster's CPUs)")
+    cmd.add_argument(
         "--backend",
         choices=("local", "ray"),
         default="local",
         help="local: processes on this machine (default); ray: a Ray cluster",
     )
-    ev.add_argument(
+    cmd.add_argument(
         "--address",
         default=None,
         help="Ray cluster to use: auto or HOST:PORT (default: start Ray on this machine)",
     )
-    ev.add_argument(
+    cmd.add_argument(
         "--resume",
         action="store_true",
         help="continue from the episodes file beside --report, skipping episodes done",
     )
-    ev.add_argument("--seed", type=_seed, default=0, help="seed of the episode seeds (0)")
-    ev.add_argument("--randomize", action="store_true", help="randomise each episode's target")
-    ev.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
-    _add_cell_option(ev)
-    ev.add_argument(
-        "--ik",
-        default=None,
-        metavar="SPEC",
-        help="plan every episode with your IK: package.module:function or path/to/file.py:function",
+    _add_seed_option(cmd, "the episode seeds")
+    cmd.add_argument("--randomize", action="store_true", help="randomise each episode's target")
+    _add_scene_option(cmd)
+    _add_cell_option(cmd)
+    _add_ik_options(
+        cmd,
+        ik="plan every episode with your IK: package.module:function or path/to/file.py:function",
+        timeout="run --ik in its own process; no answer within S seconds: the episode is ik_failed",
     )
-    ev.add_argument(
-        "--ik-timeout",
-        type=_seconds,
-        default=None,
-        metavar="S",
-        help="run --ik in its own process; no answer within S seconds: the episode is ik_failed",
-    )
-    ev.add_argument(
-        "--report",
-        type=Path,
-        default=DEFAULT_EVAL_REPORT,
-        help=f"JSON report path ({DEFAULT_EVAL_REPORT})",
-    )
-    ev.add_argument(
-        "--min-success", type=_fraction, default=0.995, help="pass bar for exit 0 (0.995)"
-    )
-    ev.add_argument(
+    _add_report_option(cmd, DEFAULT_EVAL_REPORT, "JSON report path")
+    _add_min_success_option(cmd, 0.995, "pass bar for exit 0 (0.995)")
+    cmd.add_argument(
         "--record-failures",
         type=Path,
         default=None,
         metavar="DIR",
         help="record every failed episode as DIR/<seed>_<reason>.npz (replay renders it)",
     )
-    ev.set_defaults(func=commands.evaluate)
+    cmd.set_defaults(func=commands.evaluate)
 
-    chk = sub.add_parser("check", help="can every slot and drop spot of a cell be served?")
-    chk.add_argument("--scene", type=Path, default=None, help="MJCF scene (scenes/kr210_cell.xml)")
-    _add_cell_option(chk)
-    chk.set_defaults(func=commands.check)
 
-    ikc = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
-    ikc.add_argument(
-        "--ik",
-        required=True,
-        metavar="SPEC",
-        help="package.module:function or path/to/file.py:function (ours: "
+def _add_check(sub: _Commands) -> None:
+    cmd = sub.add_parser("check", help="can every slot and drop spot of a cell be served?")
+    _add_scene_option(cmd)
+    _add_cell_option(cmd)
+    cmd.set_defaults(func=commands.check)
+
+
+def _add_ik_check(sub: _Commands) -> None:
+    cmd = sub.add_parser("ik-check", help="grade an IK function on fixed and random poses")
+    _add_ik_options(
+        cmd,
+        ik="package.module:function or path/to/file.py:function (ours: "
         "kr210_sim.robot.kinematics:nearest)",
+        timeout="run --ik in a process of its own; no answer within S seconds fails the case",
+        required=True,
     )
-    ikc.add_argument(
-        "--ik-timeout",
-        type=_seconds,
-        default=None,
-        metavar="S",
-        help="run --ik in a process of its own; no answer within S seconds fails the case",
-    )
-    ikc.add_argument(
+    cmd.add_argument(
         "--cases", type=_count, default=1000, help="random poses on top of the fixed set (1000)"
     )
-    ikc.add_argument("--seed", type=_seed, default=0, help="seed of the random poses (0)")
-    ikc.add_argument(
-        "--report",
-        type=Path,
-        default=DEFAULT_IK_REPORT,
-        help=f"JSON report path ({DEFAULT_IK_REPORT})",
-    )
-    ikc.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
-    ikc.set_defaults(func=commands.ik_check)
+    _add_seed_option(cmd, "the random poses")
+    _add_report_option(cmd, DEFAULT_IK_REPORT, "JSON report path")
+    _add_plots_option(cmd)
+    cmd.set_defaults(func=commands.ik_check)
 
-    gr = sub.add_parser("grade", help="grade many students' IK solutions, each in a sandbox")
-    gr.add_argument(
+
+def _add_grade(sub: _Commands) -> None:
+    cmd = sub.add_parser("grade", help="grade many students' IK solutions, each in a sandbox")
+    cmd.add_argument(
         "submissions",
         nargs="+",
         metavar="SUBMISSION",
         help="a folder (each .py file or subfolder is a student), a .py file or a SPEC",
     )
-    gr.add_argument("--cases", type=_count, default=1000, help="random ik-check poses (1000)")
-    gr.add_argument("--cycles", type=_cycles, default=10, help="cycles of each run (10)")
-    gr.add_argument("--seed", type=_seed, default=0, help="seed of the poses and the runs (0)")
-    gr.add_argument("--timeout", type=_seconds, default=120.0, help="seconds per student (120)")
-    gr.add_argument("--ik-timeout", type=_seconds, default=2.0, help="seconds per IK call (2)")
-    gr.add_argument(
+    cmd.add_argument("--cases", type=_count, default=1000, help="random ik-check poses (1000)")
+    cmd.add_argument("--cycles", type=_cycles, default=10, help="cycles of each run (10)")
+    _add_seed_option(cmd, "the poses and the runs")
+    cmd.add_argument("--timeout", type=_seconds, default=120.0, help="seconds per student (120)")
+    cmd.add_argument("--ik-timeout", type=_seconds, default=2.0, help="seconds per IK call (2)")
+    cmd.add_argument(
         "--memory", type=_positive_int, default=1024, help="MB of memory per student (1024)"
     )
-    gr.add_argument(
-        "--workers", type=_positive_int, default=None, help="students at once (one per core)"
-    )
-    gr.add_argument(
-        "--min-success", type=_fraction, default=0.8, help="the run's pass bar (0.8: 8 of 10)"
-    )
-    gr.add_argument(
-        "--report",
-        type=Path,
-        default=DEFAULT_GRADE_REPORT,
-        help=f"JSON report ({DEFAULT_GRADE_REPORT})",
-    )
-    gr.add_argument("--html", type=Path, default=None, help="write the leaderboard page here")
-    gr.set_defaults(func=commands.grade)
+    _add_workers_option(cmd, "students at once (one per core)")
+    _add_min_success_option(cmd, 0.8, "the run's pass bar (0.8: 8 of 10)")
+    _add_report_option(cmd, DEFAULT_GRADE_REPORT, "JSON report")
+    cmd.add_argument("--html", type=Path, default=None, help="write the leaderboard page here")
+    cmd.set_defaults(func=commands.grade)
 
-    demos = sub.add_parser(
+
+def _add_demos(sub: _Commands) -> None:
+    cmd = sub.add_parser(
         "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"
     )
-    demos.add_argument("--episodes", type=_positive_int, default=10, help="episodes (10)")
-    demos.add_argument(
-        "--out", type=Path, default=DEFAULT_DEMOS, help=f"HDF5 file ({DEFAULT_DEMOS})"
-    )
-    demos.add_argument(
+    cmd.add_argument("--episodes", type=_positive_int, default=10, help="episodes (10)")
+    cmd.add_argument("--out", type=Path, default=DEFAULT_DEMOS, help=f"HDF5 file ({DEFAULT_DEMOS})")
+    cmd.add_argument(
         "--control", choices=("joint", "cartesian"), default="joint", help="action space (joint)"
     )
-    demos.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
-    demos.add_argument("--randomize", action="store_true", help="randomise the cylinders")
-    demos.set_defaults(func=commands.demos)
+    cmd.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
+    cmd.add_argument("--randomize", action="store_true", help="randomise the cylinders")
+    cmd.set_defaults(func=commands.demos)
 
-    scene = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
-    scene.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")
-    scene.set_defaults(func=commands.build_scene)
 
-    meshes = sub.add_parser("build-meshes", help="regenerate the KR210 meshes")
-    meshes.add_argument("--out", type=Path, default=None, help="output folder")
-    meshes.set_defaults(func=commands.build_meshes)
+def _add_build_scene(sub: _Commands) -> None:
+    cmd = sub.add_parser("build-scene", help="regenerate scenes/ from the URDF and the config")
+    cmd.add_argument("--out", type=Path, default=None, help="output folder (scenes/)")
+    cmd.set_defaults(func=commands.build_scene)
 
-    snap = sub.add_parser("snapshot", help="render a still of the cell offscreen")
-    snap.add_argument("--camera", default="overview", help="camera name (overview)")
-    snap.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
-    snap.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
-    snap.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
-    _add_cell_option(snap, "the committed scene")
-    snap.set_defaults(func=commands.snapshot)
+
+def _add_build_meshes(sub: _Commands) -> None:
+    cmd = sub.add_parser("build-meshes", help="regenerate the KR210 meshes")
+    cmd.add_argument("--out", type=Path, default=None, help="output folder")
+    cmd.set_defaults(func=commands.build_meshes)
+
+
+def _add_snapshot(sub: _Commands) -> None:
+    cmd = sub.add_parser("snapshot", help="render a still of the cell offscreen")
+    cmd.add_argument("--camera", default="overview", help="camera name (overview)")
+    cmd.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
+    cmd.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
+    cmd.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
+    _add_cell_option(cmd, "the committed scene")
+    cmd.set_defaults(func=commands.snapshot)
+
+
+#: The commands in the order ``--help`` lists them.
+_COMMANDS: tuple[Callable[[_Commands], None], ...] = (
+    _add_run,
+    _add_replay,
+    _add_view,
+    _add_evaluate,
+    _add_check,
+    _add_ik_check,
+    _add_grade,
+    _add_demos,
+    _add_build_scene,
+    _add_build_meshes,
+    _add_snapshot,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The CLI's argument parser: the global options, then each command's parser."""
+    parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
+    parser.add_argument("--version", action="version", version=f"kr210_sim {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log what the cell does")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
+    sub.required = True
+    for add in _COMMANDS:
+        add(sub)
     return parser
 
 

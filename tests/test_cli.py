@@ -41,6 +41,30 @@ def test_usage_errors(argv: list[str], message: str, capsys: pytest.CaptureFixtu
     assert "Traceback" not in err
 
 
+COMMANDS = (
+    "run", "replay", "view", "evaluate", "check", "ik-check", "grade", "demos",
+    "build-scene", "build-meshes", "snapshot",
+)  # fmt: skip
+
+
+def test_commands_and_their_help(capsys: pytest.CaptureFixture[str]) -> None:
+    """The parser lists these commands in this order; each one's --help exits 0 and every
+    option it shows has a help text."""
+    import argparse
+
+    from kr210_sim.cli import build_parser
+
+    (sub,) = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    assert tuple(sub.choices) == COMMANDS
+    for name in COMMANDS:
+        with pytest.raises(SystemExit) as exc:
+            main([name, "--help"])
+        assert exc.value.code == 0
+        assert capsys.readouterr().out.startswith(f"usage: kr210_sim {name} ")
+        command = sub.choices[name]
+        assert all(a.help for a in command._actions), name
+
+
 def test_unwritable_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")
