@@ -86,6 +86,21 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             _with("row_pitch = [0.767, 0.766]", "row_pitch = [0.767]"),
             "[shelf] row_pitch: expected a positive number or a list of 2",
         ),
+        (  # a compartment lower than the target: it spawned 45 mm inside the board above
+            _with("row_pitch = [0.767, 0.766]", "row_pitch = 0.2"),
+            "[shelf] row_pitch: expected more than 0.330 m between board tops (the 0.25 m "
+            "target, a 0.04 m board and the 0.04 m lift), got 0.2",
+        ),
+        (
+            _with("height = 3.0", "height = 2.65"),
+            "[shelf] height: expected more than 2.652 m (the top board's top 2.322 m + the "
+            "0.25 m target, a 0.04 m board and the 0.04 m lift), got 2.65",
+        ),
+        (  # the nominal target fits, the longest drawn with --randomize does not
+            _with("row_pitch = [0.767, 0.766]", "row_pitch = [0.767, 0.35]"),
+            "[target.randomize] length: expected a high end below 0.270 m (the lowest "
+            "compartment's 0.350 m less a 0.04 m board and the 0.04 m lift), got [0.2, 0.3]",
+        ),
         (_with("[bin]", "[bin]\ncolour = 'red'"), "[bin] has an unknown key 'colour'"),
         (_with("name =", "name = = "), "not valid TOML"),
         (

@@ -73,6 +73,21 @@ def test_unreachable_target_is_scored_and_the_run_goes_on() -> None:
     assert r2.success
 
 
+def test_a_cylinder_left_on_the_shelf_is_cleared_before_the_next_cycle_only() -> None:
+    """A shelf out of reach: each cycle leaves its cylinder in its slot. It is taken off the
+    shelf before the next cycle (an event), and not after the last: a 2-cycle run listed an
+    event ``before_cycle`` 3."""
+    from kr210_sim.cell.load import model_for
+    from kr210_sim.cell.toml import PUBLISHED_CELL
+
+    runner = Runner(
+        RunConfig(cycles=2), model=model_for(cell=PUBLISHED_CELL.parent / "unreachable.toml")
+    )
+    for i in (1, 2):
+        assert runner.run_cycle(i, 5).reason == "unreachable"
+    assert [(e.kind.value, e.before_cycle) for e in runner.events] == [("shelf_cleared", 2)]
+
+
 def test_slippery_heavy_target_is_dropped_in_transit() -> None:
     model = load_model()  # the nominal target is target_0 as the model holds it
     model.geom_friction[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "target_0"), 0] = 0.02
@@ -162,7 +177,7 @@ def test_missed_grasp_is_retried_from_a_fresh_observation_and_recovers() -> None
 
 
 def test_a_target_knocked_over_in_its_slot_is_reported() -> None:
-    runner = _Misperceived(RunConfig(cycles=1))
+    runner = _Misperceived(RunConfig(cycles=2))
     runner.offset = np.array([0.0, -0.06, 0.0])  # a finger pad sweeps into the cylinder's side
     r = runner.run_cycle(1, 5)
     assert r.reason == "knocked_over"

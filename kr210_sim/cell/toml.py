@@ -22,9 +22,11 @@ import numpy as np
 from kr210_sim.cell.spec import (
     ROBOT_BASE_HEIGHT,
     ROBOT_BASE_RADIUS,
+    SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
     BinSpec,
     CellConfig,
+    MotionConfig,
     ObstacleSpec,
     RandomizationSpec,
     ShelfSpec,
@@ -206,6 +208,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         sha256=hashlib.sha256(text.encode()).hexdigest(),
     )
     _check_layout(path, cell)
+    _check_compartments(path, cell)
     return cell
 
 
@@ -447,6 +450,48 @@ def _check_layout(path: Path, cell: CellConfig) -> None:
                 f"(within {ROBOT_BASE_RADIUS} m of the joint_1 axis below {ROBOT_BASE_HEIGHT} m), "
                 f"got position {list(o.position)!r} size {list(o.size)!r}"
             )
+
+
+def _check_compartments(path: Path, cell: CellConfig) -> None:
+    """Refuse a shelf whose lowest compartment cannot hold the target and its lift: a cylinder
+    spawned on a board would stand in the board above (or be lifted into it).
+
+    The room is measured from a board's top to the next board's top (the top panel's for the
+    top row), less a board and the lift of a pick (:class:`~kr210_sim.cell.spec.MotionConfig`).
+
+    Raises:
+        ConfigError: Naming ``[shelf] row_pitch`` (or ``height``, for the top row) when the
+            target does not fit, ``[target.randomize] length`` when only its drawn lengths'
+            high end does not; with the figures.
+    """
+    s, length = cell.shelf, cell.target.length
+    lift = MotionConfig().lift
+    tops = s.board_tops
+    gaps = [(p, "row_pitch") for p in s.row_pitch]
+    gaps.append((s.height - tops[-1], "height"))
+    gap, key = min(gaps)
+    room = gap - SHELF_BOARD_THICKNESS - lift  # the longest target that fits [m]
+    parts = f"a {SHELF_BOARD_THICKNESS:g} m board and the {lift:g} m lift"
+    if length >= room:
+        need = SHELF_BOARD_THICKNESS + length + lift
+        if key == "height":
+            raise ConfigError(
+                f"{path}: [shelf] height: expected more than {tops[-1] + need:.3f} m (the top "
+                f"board's top {tops[-1]:g} m + the {length:g} m target, {parts}), "
+                f"got {s.height!r}"
+            )
+        got = s.row_pitch[0] if len(set(s.row_pitch)) == 1 else list(s.row_pitch)
+        raise ConfigError(
+            f"{path}: [shelf] row_pitch: expected more than {need:.3f} m between board tops "
+            f"(the {length:g} m target, {parts}), got {got!r}"
+        )
+    high = cell.randomization.length[1]
+    if high >= room:
+        raise ConfigError(
+            f"{path}: [target.randomize] length: expected a high end below {room:.3f} m (the "
+            f"lowest compartment's {gap:.3f} m less {parts}), got "
+            f"{list(cell.randomization.length)!r}"
+        )
 
 
 # -- files and models ------------------------------------------------------------------------

@@ -132,7 +132,7 @@ class Event:
 
     Attributes:
         kind: What was done.
-        before_cycle: The cycle it happened before (1-based; cycles + 1 for after the last).
+        before_cycle: The cycle it happened before (1-based, at most the cycles of the run).
         time: Simulated time [s].
         targets: Indices of the cylinders moved.
         detail: One sentence for the report and the video.

@@ -447,7 +447,8 @@ class Runner:
             self.recordings.append(rec)
         self.status["done"] = len(self.results)
         self.status["successes"] = sum(r.success for r in self.results)
-        self._clear_shelf(k, index)
+        if index < self.config.cycles:  # no event after the last cycle: none follows
+            self._clear_shelf(k, index)
         return result
 
     def _clear_shelf(self, k: int, index: int) -> None:
