@@ -101,6 +101,21 @@ def test_a_4x2_shelf_turned_to_face_the_robot_from_behind() -> None:
             "[target.randomize] length: expected a high end below 0.270 m (the lowest "
             "compartment's 0.350 m less a 0.04 m board and the 0.04 m lift), got [0.2, 0.3]",
         ),
+        (  # a cylinder standing on the floor would have its centre above the rim: missed_bin
+            _with("size = [1.0, 1.0, 1.0]", "size = [1.0, 1.0, 0.28]").replace(
+                "length = 0.25", "length = 0.5"
+            ),
+            "[bin] size: expected a rim above 0.300 m (the floor's top 0.05 m + half the 0.5 m "
+            "target: standing on the floor, a cylinder counts only with its centre below the "
+            "rim), got [1.0, 1.0, 0.28]",
+        ),
+        (
+            _with("size = [1.0, 1.0, 1.0]", "size = [1.0, 1.0, 0.28]").replace(
+                "length = [0.20, 0.30]", "length = [0.2, 0.5]"
+            ),
+            "[target.randomize] length: expected a high end below 0.460 m (twice the bin's "
+            "depth, rim 0.28 m less floor 0.05 m: standing on the floor",
+        ),
         (_with("[bin]", "[bin]\ncolour = 'red'"), "[bin] has an unknown key 'colour'"),
         (_with("name =", "name = = "), "not valid TOML"),
         (

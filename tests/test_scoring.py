@@ -175,6 +175,21 @@ def test_detail_says_what_was_measured(changes: dict[str, object], words: list[s
     assert all(w in detail for w in words), detail
 
 
+def test_a_centre_above_the_rim_inside_the_walls_is_said_so() -> None:
+    """A cylinder standing on the floor of a bin shallower than half its length: missed_bin
+    (the centre is not below the rim), and the detail no longer says it ended outside the
+    bin."""
+    outcome, detail = judge(obs(target_position=np.array([0.0, 2.5, 1.2])), BIN)
+    assert outcome is Outcome.MISSED_BIN
+    assert detail.startswith(
+        "the target's centre ended above the bin's rim, inside its walls, at [0.0, 2.5, 1.2] "
+        "(rim at z = 1.000 m; it counts only with its centre below the rim), moving at 0.000 m/s"
+    )
+    assert "outside" not in detail
+    outside = judge(obs(target_position=np.array([0.7, 2.5, 1.2])), BIN)[1]
+    assert outside.startswith("the target ended outside the bin at [0.7, 2.5, 1.2]")
+
+
 def test_episode_success_is_the_cycle_rule() -> None:
     """The Gymnasium environment's success (vectorised) agrees with :func:`score` on the same
     facts, a robot-cell contact included."""

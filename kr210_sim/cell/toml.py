@@ -209,6 +209,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
     )
     _check_layout(path, cell)
     _check_compartments(path, cell)
+    _check_bin_depth(path, cell)
     return cell
 
 
@@ -491,6 +492,33 @@ def _check_compartments(path: Path, cell: CellConfig) -> None:
             f"{path}: [target.randomize] length: expected a high end below {room:.3f} m (the "
             f"lowest compartment's {gap:.3f} m less {parts}), got "
             f"{list(cell.randomization.length)!r}"
+        )
+
+
+def _check_bin_depth(path: Path, cell: CellConfig) -> None:
+    """Refuse a bin too shallow for a target standing on its floor to count: a cycle counts a
+    cylinder only with its centre below the rim (:mod:`kr210_sim.score.scoring`), and one that
+    lands upright stands with its centre half its length above the floor.
+
+    Raises:
+        ConfigError: Naming ``[bin] size`` when the nominal target standing on the floor has
+            its centre at or above the rim, ``[target.randomize] length`` when only the longest
+            drawn target has; with the figures.
+    """
+    b, length = cell.bin, cell.target.length
+    rim, floor = b.size[2], b.floor_top
+    why = "standing on the floor, a cylinder counts only with its centre below the rim"
+    if floor + length / 2.0 >= rim:
+        raise ConfigError(
+            f"{path}: [bin] size: expected a rim above {floor + length / 2.0:.3f} m (the floor's "
+            f"top {floor:g} m + half the {length:g} m target: {why}), got {list(b.size)!r}"
+        )
+    high = cell.randomization.length[1]
+    if floor + high / 2.0 >= rim:
+        raise ConfigError(
+            f"{path}: [target.randomize] length: expected a high end below "
+            f"{2.0 * (rim - floor):.3f} m (twice the bin's depth, rim {rim:g} m less floor "
+            f"{floor:g} m: {why}), got {list(cell.randomization.length)!r}"
         )
 
 

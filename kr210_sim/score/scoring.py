@@ -10,7 +10,9 @@ The end of a cycle: the target is in the bin for good when its centre is inside 
 below the rim and the kinetic energy of every cylinder in play, all given to it, could not lift
 its centre to the rim (:func:`contained`: ``z + E / (m g) < rim``): it cannot leave, whether it
 is still or not. A centre inside the bin that could still rise over the rim when the settle wait
-ends is ``not_settled``; only a centre outside the bin is ``missed_bin``.
+ends is ``not_settled``; only a centre outside the bin's inside is ``missed_bin``: outside its
+walls, or inside them but at or above the rim (a cylinder standing on the floor of a bin less
+deep than half its length; cell files refuse such a bin, :mod:`kr210_sim.cell.toml`).
 """
 
 from __future__ import annotations
@@ -212,13 +214,14 @@ def in_bin(position: npt.ArrayLike, bin_box: BinBox, margin: float = 0.0) -> boo
         margin: Extra clearance required from the inner walls in [m].
     """
     p = np.asarray(position, dtype=np.float64)
+    return _within_walls(p, bin_box, margin) and bool(bin_box.floor_top < p[2] < bin_box.rim)
+
+
+def _within_walls(p: FloatArray, bin_box: BinBox, margin: float = 0.0) -> bool:
+    """Whether the point ``p`` [m] lies inside the bin's walls, whatever its height."""
     cx, cy = bin_box.center
     hx, hy = bin_box.inner_half
-    return bool(
-        abs(p[0] - cx) < hx - margin
-        and abs(p[1] - cy) < hy - margin
-        and bin_box.floor_top < p[2] < bin_box.rim
-    )
+    return bool(abs(p[0] - cx) < hx - margin and abs(p[1] - cy) < hy - margin)
 
 
 def rise(energy: npt.ArrayLike, mass: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -254,8 +257,8 @@ def score(obs: CycleObservation, bin_box: BinBox) -> Outcome:
     every cylinder in play could not lift it to the rim), with no robot contact with the cell.
     Otherwise the first failure in this order is returned: the plan's failure (unreachable,
     ik_failed, no_path), collision, knocked_over (no grip, target tipped over), grasp_missed,
-    dropped_in_transit, missed_bin (centre outside the bin), not_settled (centre in the bin,
-    but the energy in play could still lift it over the rim).
+    dropped_in_transit, missed_bin (centre outside the bin's walls, or at or above its rim),
+    not_settled (centre in the bin, but the energy in play could still lift it over the rim).
 
     Args:
         obs: What happened.
@@ -323,10 +326,18 @@ def describe(outcome: Outcome, obs: CycleObservation, bin_box: BinBox) -> str:
     if outcome is Outcome.DROPPED_IN_TRANSIT:
         return f"the target left the fingers before the release; it lies at {p}"
     if outcome is Outcome.MISSED_BIN:
-        return (
-            f"the target ended outside the bin at {p}, moving at {obs.target_speed:.3f} m/s and "
-            f"{obs.target_spin:.2f} rad/s (still for {obs.rested_for:.2f} s)"
+        moving = (
+            f"moving at {obs.target_speed:.3f} m/s and {obs.target_spin:.2f} rad/s (still for "
+            f"{obs.rested_for:.2f} s)"
         )
+        position = np.asarray(obs.target_position, dtype=np.float64)
+        if _within_walls(position, bin_box) and position[2] >= bin_box.rim:
+            return (
+                f"the target's centre ended above the bin's rim, inside its walls, at {p} (rim "
+                f"at z = {bin_box.rim:.3f} m; it counts only with its centre below the rim), "
+                f"{moving}"
+            )
+        return f"the target ended outside the bin at {p}, {moving}"
     if outcome is Outcome.NOT_SETTLED:
         lift = float(rise(obs.energy, obs.target_mass))
         return (
