@@ -25,7 +25,17 @@ from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError
 from kr210_sim.util.console import SafeStream
-from kr210_sim.util.interrupts import exit_code, received, signal_name, terminate_as_interrupt
+from kr210_sim.util.interrupts import (
+    end_start_up,
+    exit_code,
+    hold_start_up,
+    is_the_command,
+    leaving,
+    received,
+    signal_name,
+    terminate_as_interrupt,
+    work_done,
+)
 
 DEFAULT_REPORT = Path("reports/run.json")
 DEFAULT_EVAL_REPORT = Path("reports/evaluate.json")
@@ -476,27 +486,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands whose job ends the start-up's hold itself (``interrupts.end_start_up``), where its
+#: own handling of an interrupt begins: a signal during the start-up gives their report of no
+#: cycles. The others end it before they are called, and write nothing for such a signal.
+_OWN_START = frozenset({"run", "view"})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code.
 
-    While a command runs, stdout and stderr are :class:`~kr210_sim.util.console.SafeStream` objects
-    (a
-    closed pipe or a full device drops console output, never the run) and SIGTERM / SIGHUP
-    stop it like Ctrl-C (:mod:`kr210_sim.util.interrupts`): exit 130, 143 or 129.
+    While a command runs, stdout and stderr are :class:`~kr210_sim.util.console.SafeStream`
+    objects (a closed pipe or a full device drops console output, never the run) and SIGTERM /
+    SIGHUP stop it like Ctrl-C (:mod:`kr210_sim.util.interrupts`): exit 130, 143 or 129. The
+    signals are held from the start (imports, parsing) until the command's work begins, and
+    again once it is over; after the first, every further one is held while the report of what
+    was done is written.
     """
+    hold_start_up()  # already held since the package's first import when this is the command
     stdout, stderr = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = SafeStream(stdout, "stdout"), SafeStream(stderr, "stderr")
     try:
         with terminate_as_interrupt():
             try:
                 code = _main(argv)
-            except KeyboardInterrupt as exc:  # while parsing (a type's lazy import), say
+                work_done()
+            except KeyboardInterrupt as exc:  # as the command's work began, or ended
+                work_done()
                 sys.stderr.write(f"kr210_sim: interrupted ({signal_name(exc)})\n")
-                return exit_code(exc)
+                code = exit_code(exc)
             signum = received()
-            if signum is not None and code < 128:  # an interrupt something swallowed
+            if signum is not None and code < 128:  # an interrupt something swallowed, or late
                 sys.stderr.write(f"kr210_sim: interrupted ({signal.Signals(signum).name})\n")
-                return 128 + signum
+                code = 128 + signum
+            sys.stdout.flush()
+            if is_the_command():
+                leaving(code)
             return code
     finally:
         sys.stdout.flush()
@@ -520,6 +544,15 @@ def _main(argv: list[str] | None) -> int:
         from kr210_sim.util.paths import SCENES_DIR
 
         args.out = SCENES_DIR
+    if args.command not in _OWN_START:
+        try:
+            end_start_up()
+        except KeyboardInterrupt as exc:
+            sys.stderr.write(
+                f"kr210_sim: interrupted ({signal_name(exc)}) before {args.command} began; "
+                "nothing written\n"
+            )
+            return exit_code(exc)
     try:
         return int(args.func(args))
     except Kr210SimError as exc:

@@ -14,7 +14,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.util.interrupts import exit_code, signal_name
+from kr210_sim.util.interrupts import end_start_up, exit_code, signal_name
 from kr210_sim.util.progress import ProgressLine
 
 if TYPE_CHECKING:
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:  # a bad SPEC is one line here, before anything runs
         ik = _load_ik(args.ik, args.ik_timeout)
-    except KeyboardInterrupt as exc:  # in the user's module: still a report, of no cycles
+    except KeyboardInterrupt as exc:  # one the user's module raises (signals wait for the job)
         from kr210_sim.sim.runner import RunConfig
         from kr210_sim.sim.session import unstarted_report
         from kr210_sim.util.outputs import check_writable, write_json_atomic
@@ -198,6 +198,8 @@ def view(args: argparse.Namespace) -> int:
         joints=args.joints,
         quality=args.quality,
     )
+    if args.joints or args.replay is not None:  # no report: the start-up ends here
+        end_start_up()
     if args.joints:
         if args.demo:
             raise ConfigError("--joints has no task to step through: drop --demo")

@@ -44,7 +44,7 @@ from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import run_session, runner_report, unstarted_report
-from kr210_sim.util.interrupts import exit_code, signal_name
+from kr210_sim.util.interrupts import cuttable, end_start_up, exit_code, signal_name, winding_up
 from kr210_sim.util.outputs import (
     check_distinct,
     check_folder,
@@ -196,6 +196,7 @@ def run_job(
     check_outputs(report_path, video, plots_dir, scene, ik, cell, record)
     pool: RenderPool | None = None
     try:  # an interrupt before the first cycle: a report of none, marked interrupted
+        end_start_up()  # the command's: a signal held since its start-up is raised here
         # Without --scene or --cell the runner loads the committed scene itself, after the URDF
         # (a recording or a video needs the model's identity first: then it is loaded here).
         model = identity = None
@@ -229,11 +230,12 @@ def run_job(
                     StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
                 )
     except KeyboardInterrupt as exc:
-        if pool is not None:
-            pool.abort(keep=False)
-        report = unstarted_report(config, exc)
-        if report_path is not None:
-            write_json_atomic(report_path, report)
+        with winding_up(exc):
+            if pool is not None:
+                pool.abort(keep=False)
+            report = unstarted_report(config, exc)
+            if report_path is not None:
+                write_json_atomic(report_path, report)
         return JobResult(report, report_path, exc)
 
     def closing_shot() -> None:  # the bin with the cylinders in it
@@ -250,47 +252,67 @@ def run_job(
         closing=closing_shot,
     )
     interrupted = end.interrupted if isinstance(end.interrupted, KeyboardInterrupt) else None
-    if interrupted is not None:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.util.interrupts)
-        sys.stderr.write(
-            f"kr210_sim: interrupted after {len(runner.results)} cycles "
-            f"({signal_name(interrupted)}); writing the report of those\n"
+    # Whatever signals follow (a CI cancel sends two), the outputs of the cycles done are
+    # written whole; only the video's last frames may be cut short by a further one.
+    with winding_up(interrupted):
+        if interrupted is not None:  # Ctrl-C, or SIGTERM / SIGHUP (kr210_sim.util.interrupts)
+            sys.stderr.write(
+                f"kr210_sim: interrupted after {len(runner.results)} cycles "
+                f"({signal_name(interrupted)}); writing the report of those\n"
+            )
+        report = runner_report(runner, end.wall_time, interrupted)
+        if report_path is not None:
+            write_json_atomic(report_path, report)
+        result = JobResult(
+            report,
+            report_path,
+            interrupted,
+            video_error=video_error,
+            sim_time=runner.cell.time,
+            results=list(runner.results),
         )
-    wall = end.wall_time
-    report = runner_report(runner, wall, interrupted)
-    if report_path is not None:
-        write_json_atomic(report_path, report)
-    result = JobResult(
-        report,
-        report_path,
-        interrupted,
-        video_error=video_error,
-        sim_time=runner.cell.time,
-        results=list(runner.results),
-    )
-    if states is not None and record is not None and identity is not None:
-        settings = None
-        if video is not None:
-            settings = {
-                "cameras": list(video.cameras),
-                "width": video.width,
-                "height": video.height,
-                "fps": video.fps,
-                "quality": video.quality,
-            }
-        meta = run_meta(config, identity, scene if scene is not None else cell, report, settings)
-        result.record_frames = states.frames
-        write_recording(record, states.recording(meta))
+        if states is not None and record is not None and identity is not None:
+            result.record_frames = states.frames
+            write_recording(
+                record,
+                states.recording(
+                    _recording_meta(
+                        config, identity, video, scene if scene is not None else cell, report
+                    )
+                ),
+            )
+        if pool is not None:
+            result.video_frames, result.video_error, stopped = _finish_video(pool)
+            result.interrupted = result.interrupted or stopped
+            if progress is not None:
+                progress.finish(result.video_frames)
+        if plots_dir is not None and runner.results:
+            from kr210_sim.media.plots import write_plots
 
-    if pool is not None:
-        result.video_frames, result.video_error, stopped = _finish_video(pool)
-        result.interrupted = result.interrupted or stopped
-        if progress is not None:
-            progress.finish(result.video_frames)
-    if plots_dir is not None and runner.results:
-        from kr210_sim.media.plots import write_plots
-
-        result.plot_paths = write_plots(plots_dir, runner.results, runner.recordings, runner.robot)
+            result.plot_paths = write_plots(
+                plots_dir, runner.results, runner.recordings, runner.robot
+            )
     return result
+
+
+def _recording_meta(
+    config: RunConfig,
+    identity: str,
+    video: VideoSettings | None,
+    source: Path | None,
+    report: dict[str, Any],
+) -> dict[str, Any]:
+    """The recording's metadata: the run, its model and report, the video's settings."""
+    settings = None
+    if video is not None:
+        settings = {
+            "cameras": list(video.cameras),
+            "width": video.width,
+            "height": video.height,
+            "fps": video.fps,
+            "quality": video.quality,
+        }
+    return run_meta(config, identity, source, report, settings)
 
 
 def _guarded(pool: RenderPool) -> Any:
@@ -320,7 +342,8 @@ def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt 
             None,
         )
     try:
-        return pool.finish(), None, None
+        with cuttable():  # a further signal stops the rendering of the last frames
+            return pool.finish(), None, None
     except KeyboardInterrupt as exc:
         try:
             return pool.abort(keep=True), None, exc
@@ -453,38 +476,40 @@ def view_job(
 
     out = out or sys.stdout
     check_outputs(report_path, None, None, scene, ik, cell)
-    model = None
-    if scene is not None or cell is not None:
-        model = model_for(scene, cell)
-        refuse_unservable(model)
-    runner = Runner(config, model=model, ik=ik)
-    viewer = LiveViewer(runner.model, settings)
+    viewer: LiveViewer | None = None
     try:
-        session = ViewerSession(viewer, runner, out)
-        announce(viewer, settings, out)
-        if on_ready is not None:
-            on_ready(viewer)
-        pacer = Pacer(session.publish, live.speed, live.fps)
-        session.pacer = pacer
-        gate = DemoGate(session.wait_next) if settings.demo else None
+        try:  # an interrupt before the first cycle: a report of none, marked interrupted
+            end_start_up()  # the command's: a signal held since its start-up is raised here
+            model = None
+            if scene is not None or cell is not None:
+                model = model_for(scene, cell)
+                refuse_unservable(model)
+            runner = Runner(config, model=model, ik=ik)
+            viewer = LiveViewer(runner.model, settings)
+            session = ViewerSession(viewer, runner, out)
+            announce(viewer, settings, out)
+            if on_ready is not None:
+                on_ready(viewer)
+            pacer = Pacer(session.publish, live.speed, live.fps)
+            session.pacer = pacer
+            gate = DemoGate(session.wait_next) if settings.demo else None
+        except KeyboardInterrupt as exc:
+            with winding_up(exc):
+                report = unstarted_report(config, exc)
+                write_json_atomic(report_path, report)
+            return ViewResult(report, report_path, True, 0.0, 0, [], exit_code(exc))
         end = run_session(
             runner, out, hooks=[pacer], on_phase=gate, stops=(KeyboardInterrupt, ViewerClosed)
         )
-        pacer.finish()
         interrupted = end.interrupted
-        if interrupted is not None:
-            why = (
-                f"interrupted ({signal_name(interrupted)})"
-                if isinstance(interrupted, KeyboardInterrupt)
-                else str(interrupted)
-            )
-            sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
-        report = runner_report(
-            runner,
-            end.wall_time,
-            interrupted if isinstance(interrupted, KeyboardInterrupt) else bool(interrupted),
-        )
-        write_json_atomic(report_path, report)
+        signalled = interrupted if isinstance(interrupted, KeyboardInterrupt) else None
+        with winding_up(signalled) as held:  # written whole, whatever signals follow
+            pacer.finish()
+            if interrupted is not None:
+                why = f"interrupted ({signal_name(signalled)})" if signalled else str(interrupted)
+                sys.stderr.write(f"kr210_sim: {why} after {len(runner.results)} cycles\n")
+            report = runner_report(runner, end.wall_time, signalled or interrupted is not None)
+            write_json_atomic(report_path, report)
         result = ViewResult(
             report,
             report_path,
@@ -494,11 +519,12 @@ def view_job(
             gate.paused if gate is not None else [],
             exit_code(interrupted) if interrupted is not None else 0,
         )
-        if not interrupted and not live.exit_when_done:
+        if not interrupted and not held and not live.exit_when_done:
             runner.status["phase"] = "done"
             out.write(f"done; report: {report_path}; the viewer stays open: Ctrl-C to quit\n")
             out.flush()
             hold_open(lambda: session.publish(runner.cell))
         return result
     finally:
-        viewer.close()
+        if viewer is not None:
+            viewer.close()

@@ -65,6 +65,20 @@ def test_commands_and_their_help(capsys: pytest.CaptureFixture[str]) -> None:
         assert all(a.help for a in command._actions), name
 
 
+@pytest.mark.parametrize("argv", [["run", "--cycles", "0"], ["check", "--help"], ["fly"]])
+def test_main_leaves_the_signal_handlers_as_it_found_them(argv: list[str]) -> None:
+    """main() holds the signals from its first line (the start-up): a usage error, --help or
+    a command's end puts the handlers back, in a process that goes on (a test, a notebook)."""
+    import signal
+
+    from kr210_sim.util.interrupts import SIGNALS
+
+    before = {s: signal.getsignal(s) for s in SIGNALS}
+    with pytest.raises(SystemExit):
+        main(argv)
+    assert {s: signal.getsignal(s) for s in SIGNALS} == before
+
+
 def test_unwritable_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")

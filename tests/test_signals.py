@@ -1,7 +1,8 @@
 """Signals and closed pipes, on a real ``python -m kr210_sim run`` process: what finished is kept.
 
-Each test starts the command, waits for its first cycle line, then does to it what a user or a
-CI runner would (Ctrl-C to the process group, SIGTERM, ``| head -1``, a full device).
+Each test starts the command, waits for its first cycle line (or for a chosen moment of its
+start-up), then does to it what a user or a CI runner would (Ctrl-C to the process group,
+SIGTERM, two signals a few ms apart, ``| head -1``, a full device).
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ import os
 import signal
 import subprocess
 import sys
+import textwrap
+import time
 from pathlib import Path
 
 import imageio.v2 as imageio
@@ -197,3 +200,167 @@ def test_an_ik_that_closes_stdout_and_changes_folder_loses_no_output(tmp_path: P
     data = json.loads((tmp_path / "out" / "run.json").read_text())  # where it was asked for
     assert data["summary"]["successes"] == 2
     assert list(elsewhere.iterdir()) == []
+
+
+def _cycle_lines(out: str) -> int:
+    return sum(1 for line in out.splitlines() if line.startswith("["))
+
+
+def _burst(first: int, then: list[tuple[float, int]]) -> list[tuple[float, int]]:
+    return [(0.0, first), *then]
+
+
+# (what is sent after the first cycle line: pauses [s] and signals, to the process or its group)
+SECOND_SIGNALS = {
+    "SIGINT twice 2 ms apart": (_burst(signal.SIGINT, [(0.002, signal.SIGINT)]), False),
+    # a CI cancel through `timeout`: the group is signalled, and timeout forwards it again
+    "SIGTERM to the group twice 5 ms apart": (
+        _burst(signal.SIGTERM, [(0.005, signal.SIGTERM)]),
+        True,
+    ),
+    "SIGINT then one every ms for 0.2 s": (
+        _burst(signal.SIGINT, [(0.001, signal.SIGINT)] * 200),
+        False,
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(SECOND_SIGNALS))
+def test_further_signals_while_the_report_is_written_lose_nothing(
+    tmp_path: Path, case: str
+) -> None:
+    report = tmp_path / "run.json"
+    proc = _start(["--cycles", "40", "--report", str(report)], tmp_path)
+    first = _first_cycle(proc)
+    sends, group = SECOND_SIGNALS[case]
+    for pause, signum in sends:
+        time.sleep(pause)
+        try:
+            os.killpg(proc.pid, signum) if group else proc.send_signal(signum)
+        except ProcessLookupError:  # it was done before the last one
+            break
+    out, err = proc.communicate(timeout=60)
+    name = signal.Signals(sends[0][1]).name
+    assert proc.returncode == 128 + sends[0][1], err
+    done = _cycle_lines(first + out)
+    assert err.splitlines() == [
+        f"kr210_sim: interrupted after {done} cycles ({name}); writing the report of those"
+    ]
+    data = json.loads(report.read_text())  # written, whole
+    assert data["interrupted"] is True and data["interrupted_by"] == name
+    assert data["summary"]["cycles"] == len(data["cycles"]) == done >= 1
+    assert f"report: {report}" in out
+    assert [p.name for p in tmp_path.iterdir()] == ["run.json"]  # no temporary file left
+
+
+#: A sitecustomize that holds the import of one module (``KR210_TEST_HOLD``) until a file
+#: appears: the test signals the process at that moment of its start-up.
+HOLD_AN_IMPORT = """
+    import os, sys, time
+
+    class _Hold:
+        def find_spec(self, name, path=None, target=None):
+            if name == os.environ["KR210_TEST_HOLD"]:
+                sys.meta_path.remove(self)
+                mark = os.environ["KR210_TEST_MARK"]
+                open(mark, "w").close()
+                deadline = time.monotonic() + 120
+                while not os.path.exists(mark + ".go") and time.monotonic() < deadline:
+                    time.sleep(0.005)
+            return None
+
+    sys.meta_path.insert(0, _Hold())
+"""
+
+
+def _held_at(module: str, args: list[str], tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
+    """Start ``python -m kr210_sim ARGS`` and wait until its start-up imports ``module``."""
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(textwrap.dedent(HOLD_AN_IMPORT))
+    mark = tmp_path / "at-the-import"
+    env = {**os.environ, "PYTHONPATH": str(site), "KR210_TEST_HOLD": module}
+    env["KR210_TEST_MARK"] = str(mark)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "kr210_sim", *args],
+        cwd=tmp_path,
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while not mark.exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.005)
+    return proc, mark
+
+
+# Moments of run's start-up: the package's import (mujoco), the parsing of the arguments (the
+# type of --cycles), the command's imports, and the job's (after the IK is loaded).
+START_UP = {
+    "mujoco": signal.SIGINT,
+    "kr210_sim.sim.runner": signal.SIGTERM,
+    "kr210_sim.api": signal.SIGTERM,
+    "kr210_sim.jobs": signal.SIGINT,
+}
+
+
+@pytest.mark.parametrize("module", list(START_UP))
+def test_a_signal_during_start_up_gives_a_report_of_no_cycles(tmp_path: Path, module: str) -> None:
+    report = tmp_path / "run.json"
+    report.write_text('{"an earlier run": true}')  # must not be taken for this run's
+    proc, mark = _held_at(module, ["run", "--cycles", "3", "--report", str(report)], tmp_path)
+    signum = START_UP[module]
+    proc.send_signal(signum)
+    time.sleep(0.005)
+    proc.send_signal(signum)  # and a second, as a CI cancel sends
+    Path(f"{mark}.go").touch()
+    out, err = proc.communicate(timeout=120)
+    name = signal.Signals(signum).name
+    assert proc.returncode == 128 + signum, err
+    assert err.splitlines() == [
+        f"kr210_sim: interrupted before the first cycle ({name}); writing a report of no cycles"
+    ]
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True and data["interrupted_by"] == name
+    assert data["summary"]["cycles"] == 0 and data["cycles"] == [] and "[ 1/" not in out
+
+
+def test_a_signal_during_start_up_of_a_command_without_cycles_writes_nothing(
+    tmp_path: Path,
+) -> None:
+    """evaluate's report and its episodes file describe the earlier evaluation, as --resume
+    reads them: a signal before this one began leaves both as they were."""
+    report = tmp_path / "evaluate.json"
+    report.write_text("earlier")
+    proc, mark = _held_at("kr210_sim.cli", ["evaluate", "--report", str(report)], tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    Path(f"{mark}.go").touch()
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert err.splitlines() == [
+        "kr210_sim: interrupted (SIGTERM) before evaluate began; nothing written"
+    ]
+    assert report.read_text() == "earlier"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "at-the-import",
+        "at-the-import.go",
+        "evaluate.json",
+        "site",
+    ]
+
+
+def test_a_start_up_that_does_not_end_after_a_signal_is_ended_there(tmp_path: Path) -> None:
+    from kr210_sim.util.interrupts import START_UP_GRACE_S
+
+    proc, _ = _held_at("kr210_sim.cli", ["run", "--report", str(tmp_path / "r.json")], tmp_path)
+    proc.send_signal(signal.SIGTERM)  # and the import it waits in never ends
+    _, err = proc.communicate(timeout=60 + START_UP_GRACE_S)
+    assert proc.returncode == 143
+    assert err.splitlines() == [
+        f"kr210_sim: interrupted (SIGTERM) during start-up, which had not ended "
+        f"{START_UP_GRACE_S:g} s later; stopped there, nothing written"
+    ]
+    assert not (tmp_path / "r.json").exists()
