@@ -534,6 +534,7 @@ def grade(
     report: str | Path | None = None,
     html: str | Path | None = None,
     out: TextIO | None = None,
+    jail: bool = True,
 ) -> GradeReport:
     """Grade a class of IK solutions, each in its own sandbox (``python -m kr210_sim grade``).
 
@@ -553,6 +554,7 @@ def grade(
         html: Write the self-contained leaderboard page here, or None.
         out: Stream for a line per student as each one finishes (None: logger
             ``kr210_sim.api``).
+        jail: Each student's IK in a bubblewrap jail; False: unjailed, as ``--no-jail``.
 
     Returns:
         The leaderboard's report: ``verdicts``, ``students`` (records in leaderboard order),
@@ -560,7 +562,7 @@ def grade(
 
     Raises:
         ConfigError: A bad argument, a submission that does not exist or names no student, or
-            an output that cannot be written (before any student is graded).
+            an output that cannot be written, or no jail (before any student is graded).
         RunInterrupted: Ctrl-C or SIGTERM stopped the grading (the report of the students
             finished was written; it is the exception's ``report``).
     """
@@ -580,6 +582,7 @@ def grade(
         memory_mb=_whole(memory_mb, "memory_mb", 1),
         workers=len(os.sched_getaffinity(0)) if workers is None else _whole(workers, "workers", 1),
         min_success=min_success,
+        jail=bool(jail),
     )
     out = _stream(out, "out")
     students = find_students(submissions)

@@ -188,6 +188,11 @@ def _add_ik_options(
     else:
         cmd.add_argument("--ik", default=None, metavar="SPEC", help=ik)
     cmd.add_argument("--ik-timeout", type=_seconds, default=None, metavar="S", help=timeout)
+    _add_no_jail_option(cmd, "run --ik-timeout's process unjailed (says what is then unprotected)")
+
+
+def _add_no_jail_option(cmd: argparse.ArgumentParser, help: str) -> None:
+    cmd.add_argument("--no-jail", action="store_true", help=help)
 
 
 def _add_run_options(cmd: argparse.ArgumentParser, report: Path) -> None:
@@ -419,6 +424,7 @@ def _add_grade(sub: _Commands) -> None:
     _add_min_success_option(cmd, 0.8, "the run's pass bar (0.8: 8 of 10)")
     _add_report_option(cmd, DEFAULT_GRADE_REPORT, "JSON report")
     cmd.add_argument("--html", type=Path, default=None, help="write the leaderboard page here")
+    _add_no_jail_option(cmd, "run the students' code unjailed (says what is then unprotected)")
     cmd.set_defaults(func=commands.grade)
 
 

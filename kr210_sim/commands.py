@@ -9,6 +9,7 @@ subpackages.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 from typing import TYPE_CHECKING, Any
@@ -25,15 +26,37 @@ if TYPE_CHECKING:
 DEFAULT_RECORD_RATE = 30
 
 
-def _load_ik(spec: str | None, timeout: float | None = None) -> Any:
+def _no_jail(args: argparse.Namespace) -> None:
+    """``--no-jail`` for ``--ik-timeout``: say what is then not protected, and have every
+    process of this command (evaluate's workers too) start the IK unjailed.
+
+    Raises:
+        ConfigError: ``--no-jail`` without ``--ik-timeout`` (there is no process to jail).
+    """
+    if not getattr(args, "no_jail", False):
+        return
+    if args.ik_timeout is None:
+        raise ConfigError(
+            "--no-jail needs --ik-timeout S: without it your IK runs in this process, unjailed"
+        )
+    from kr210_sim.robot.jail import JAIL_ENV, unjailed_warning
+
+    os.environ[JAIL_ENV] = "0"
+    sys.stderr.write(unjailed_warning("your IK's"))
+
+
+def _load_ik(args: argparse.Namespace) -> Any:
     """The user's IK for ``--ik SPEC`` (None without one), with ``--ik-timeout`` in a process of
-    its own; a bad SPEC is a one-line error here, before anything runs."""
+    its own, jailed unless ``--no-jail``; a bad SPEC, or no jail where one can be made, is a
+    one-line error here, before anything runs."""
+    spec, timeout = args.ik, args.ik_timeout
     if spec is None:
         if timeout is not None:
             raise ConfigError("--ik-timeout needs --ik SPEC")
         return None
     from kr210_sim.robot.ik_sandbox import load_user_ik
 
+    _no_jail(args)
     return load_user_ik(spec, timeout)
 
 
@@ -68,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     from kr210_sim.media.video import VideoSettings
 
     try:  # a bad SPEC is one line here, before anything runs
-        ik = _load_ik(args.ik, args.ik_timeout)
+        ik = _load_ik(args)
     except KeyboardInterrupt as exc:  # one the user's module raises (signals wait for the job)
         from kr210_sim.sim.runner import RunConfig
         from kr210_sim.sim.session import unstarted_report
@@ -213,7 +236,7 @@ def view(args: argparse.Namespace) -> int:
         return _view_replay(args, settings)
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
-    ik = _load_ik(args.ik, args.ik_timeout)
+    ik = _load_ik(args)
     result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
     out = sys.stdout
     summary = result.report["summary"]
@@ -259,6 +282,7 @@ def evaluate(args: argparse.Namespace) -> int:
     from kr210_sim.eval.evaluate import EvalConfig
     from kr210_sim.jobs import evaluate_job
 
+    _no_jail(args)
     config = EvalConfig(
         episodes=args.episodes,
         seed=args.seed,
@@ -337,7 +361,7 @@ def ik_check(args: argparse.Namespace) -> int:
     """``ik-check --ik SPEC``: grade an IK function."""
     from kr210_sim.api import ik_check
 
-    ik = _load_ik(args.ik, args.ik_timeout)  # a bad SPEC is one line here, before anything runs
+    ik = _load_ik(args)  # a bad SPEC is one line here, before anything runs
     result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
     out = sys.stdout
     out.write(result.text + "\n")
@@ -366,6 +390,7 @@ def grade(args: argparse.Namespace) -> int:
             report=args.report,
             html=args.html,
             out=sys.stdout,
+            jail=not args.no_jail,
         )
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]

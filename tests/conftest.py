@@ -59,3 +59,15 @@ def no_offset_ik(tmp_path_factory: pytest.TempPathFactory) -> str:
     path = tmp_path_factory.mktemp("broken_ik") / "ik_no_offset.py"
     path.write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
     return f"{path}:solve"
+
+
+@pytest.fixture(autouse=True)
+def _jail_setting_kept(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--no-jail`` sets KR210_JAIL=0 in the process that runs the command (so evaluate's
+    workers see it); a test that runs a command in-process must not leave it to the next."""
+    import os
+
+    value = os.environ.get("KR210_JAIL")
+    monkeypatch.setenv("KR210_JAIL", value or "1")  # what it was comes back after the test
+    if value is None:
+        monkeypatch.delenv("KR210_JAIL")

@@ -222,9 +222,11 @@ def test_a_failed_video_raises_with_the_run(
 
 
 def _timeless(value: Any) -> Any:
-    """``value`` without its wall-clock times (every ``wall_time*`` key)."""
+    """``value`` without its wall-clock times (every ``wall_time*`` key) and CPU times
+    (``cpu_s``: the jail's)."""
     if isinstance(value, dict):
-        return {k: _timeless(v) for k, v in value.items() if not k.startswith("wall_time")}
+        kept = {k: v for k, v in value.items() if not k.startswith("wall_time") and k != "cpu_s"}
+        return {k: _timeless(v) for k, v in kept.items()}
     if isinstance(value, list):
         return [_timeless(v) for v in value]
     return value

@@ -33,8 +33,8 @@ BAD = {
     "exits": "import sys\n\ndef solve(T, q):\n    sys.exit(4)\n",
     "hog": "def solve(T, q):\n    keep = [bytearray(8 << 30)]\n    return keep\n",
     "syntax": "def solve(T, q)\n    return q\n",
-    "chatty": (
-        "from correct import solve as _solve\n_said = []\n\n"
+    "chatty": (  # our IK (make_class puts it first), then a first call that prints 10 MB
+        "\n_solve = solve\n_said = []\n\n"
         "def solve(T, q):\n    if not _said:\n        _said.append(1)\n"
         "        for _ in range(10_000):\n            print('x' * 1023)\n"
         "    return _solve(T, q)\n"
@@ -59,7 +59,7 @@ def make_class(folder: Path) -> Path:
     (folder / "correct.py").write_text(src)
     (folder / "no_offset.py").write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
     for name, body in BAD.items():
-        (folder / f"{name}.py").write_text(body)
+        (folder / f"{name}.py").write_text(src + body if name == "chatty" else body)
     return folder
 
 
@@ -357,7 +357,10 @@ def test_a_hostile_class_is_graded_and_its_page_runs_nothing(tmp_path: Path) -> 
     cwd, tmp, out = tmp_path / "cwd", tmp_path / "tmp", tmp_path / "out"
     for d in (cwd, tmp, out):
         d.mkdir()
-    args = ["../hostile", "--cases", "0", "--cycles", "1", "--workers", "2"]
+    # --no-jail: these attacks are on the grader's own checks (the record's pipe and seal),
+    # which must hold where the students reach their grading process; in the jail they reach
+    # neither it nor the class folder (tests/test_jail_class.py).
+    args = ["../hostile", "--cases", "0", "--cycles", "1", "--workers", "2", "--no-jail"]
     args += ["--report", str(out / "grade.json"), "--html", str(out / "grade.html")]
     proc = _grade(args, cwd, tmp)
     raw_out, raw_err = proc.communicate(timeout=900)

@@ -274,12 +274,17 @@ import os
 from ik_dh_copy import solve as _solve
 
 def solve(T, q):
-    if not os.path.exists("hung_once"):  # in the sandbox's scratch folder: survives a restart
+    if not os.path.exists("hung_once"):  # in the scratch folder: survives a restart unjailed
         open("hung_once", "w").close()
         while True:
             pass
     return _solve(T, q)
 """
+
+
+#: HANGS_ONCE needs state that survives a restart: the scratch folder, unjailed (each start of
+#: a jail is a fresh one, tests/test_jail.py).
+UNJAILED = "--no-jail"
 
 
 def _hangs_once(folder: Path) -> str:
@@ -310,7 +315,7 @@ def test_a_hanging_answer_ends_its_cycle_as_ik_failed_and_the_run_goes_on(
     spec = _hangs_once(tmp_path)
     report = tmp_path / "run.json"
     t0 = time.monotonic()
-    argv = ["run", "--ik", spec, "--ik-timeout", "1", "--cycles", "2", "--slot", "5"]
+    argv = ["run", "--ik", spec, "--ik-timeout", "1", UNJAILED, "--cycles", "2", "--slot", "5"]
     assert main([*argv, "--report", str(report)]) == 1  # 1 of 2 is below the 80 % bar
     assert time.monotonic() - t0 < 120
     out = capsys.readouterr().out
@@ -331,7 +336,7 @@ def test_ik_check_and_evaluate_take_the_limit_too(
 
     spec = _hangs_once(tmp_path)
     report = tmp_path / "ik.json"
-    argv = ["ik-check", "--ik", spec, "--ik-timeout", "1", "--cases", "0"]
+    argv = ["ik-check", "--ik", spec, "--ik-timeout", "1", UNJAILED, "--cases", "0"]
     assert main([*argv, "--report", str(report)]) == 1
     cases = json.loads(report.read_text())["cases"]
     assert [c["error"] for c in cases if not c["passed"]] == ["IkTimeout: no answer within 1 s"]
@@ -340,7 +345,8 @@ def test_ik_check_and_evaluate_take_the_limit_too(
     again.mkdir()
     spec = _hangs_once(again)
     report = tmp_path / "ev" / "evaluate.json"
-    argv = ["evaluate", "--ik", spec, "--ik-timeout", "1", "--episodes", "2", "--workers", "1"]
+    argv = ["evaluate", "--ik", spec, "--ik-timeout", "1", UNJAILED, "--episodes", "2"]
+    argv += ["--workers", "1"]
     assert main([*argv, "--report", str(report)]) == 1
     data = json.loads(report.read_text())
     assert data["summary"]["successes"] == 1

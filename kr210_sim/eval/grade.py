@@ -60,6 +60,7 @@ from kr210_sim.eval.record import (
 from kr210_sim.eval.roster import STUDENT_FUNCTION, STUDENT_MODULE, Student, find_students
 from kr210_sim.eval.student import STUDENT_COMMAND, StudentJob
 from kr210_sim.robot.ik_sandbox import DEFAULT_MEMORY_MB, MIN_MEMORY_MB
+from kr210_sim.robot.jail import Jail, unjailed, unjailed_warning
 from kr210_sim.robot.user_ik import spec_file
 from kr210_sim.sim.runner import MAX_CYCLES
 from kr210_sim.util.interrupts import signal_name
@@ -103,6 +104,8 @@ class GradeSettings:
         memory_mb: Memory limit of each student's process [MB].
         workers: Students graded at once.
         min_success: The run's pass bar (share of ``cycles``).
+        jail: Each student's IK in a bubblewrap jail (:mod:`kr210_sim.robot.jail`); False:
+            ``--no-jail``.
 
     Raises:
         ConfigError: A value out of its range (one line naming the option).
@@ -116,6 +119,7 @@ class GradeSettings:
     memory_mb: int = DEFAULT_MEMORY_MB
     workers: int = 1
     min_success: float = 0.8
+    jail: bool = True
 
     def __post_init__(self) -> None:
         def whole(v: object) -> bool:
@@ -159,6 +163,7 @@ class GradeSettings:
             "own_time_cap_s": self.own_time_cap,
             "memory_mb": self.memory_mb,
             "min_success": self.min_success,
+            "jail": self.jail,
         }
 
 
@@ -265,6 +270,8 @@ class _Pool:
             min_success=s.min_success,
             scratch=str(scratch),
             plots=str(self.root / "plots" / str(index)) if self.plots else "",
+            jail=s.jail,
+            root=student.root,
         )
 
     def start(self, index: int, student: Student) -> None:
@@ -404,6 +411,20 @@ class _Pool:
         self.selector.close()
 
 
+def _confinement(settings: GradeSettings) -> dict[str, Any]:
+    """What protects the students' code, for the report: the jail's parts (made once here, so
+    a machine where none can be made is refused before any student starts), or, with
+    ``--no-jail``, what is not protected (also said on stderr).
+
+    Raises:
+        JailUnavailable: No jail can be made here.
+    """
+    if settings.jail:
+        return Jail().describe()
+    sys.stderr.write(unjailed_warning("the students'"))
+    return unjailed()
+
+
 def grade(
     students: Sequence[Student],
     settings: GradeSettings,
@@ -425,10 +446,13 @@ def grade(
 
     Raises:
         ConfigError: When the report or page cannot be written (checked first).
+        JailUnavailable: ``settings.jail`` where no jail can be made (what to install or
+            enable, and ``--no-jail``).
     """
     from kr210_sim.util.outputs import check_distinct, check_writable
 
     out = out or sys.stdout
+    confinement = _confinement(settings)
     for path in (report_path, html_path):
         if path is not None:
             check_writable(path)
@@ -470,9 +494,8 @@ def grade(
     finally:
         pool.stop()
         shutil.rmtree(root, ignore_errors=True)
-    report = build_report(
-        records, settings.config(), settings.workers, time.monotonic() - wall0, interrupted
-    )
+    config = {**settings.config(), "confinement": confinement}
+    report = build_report(records, config, settings.workers, time.monotonic() - wall0, interrupted)
     if report_path is not None:
         from kr210_sim.util.outputs import write_json_atomic
 

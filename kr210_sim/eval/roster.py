@@ -40,11 +40,16 @@ class Student:
         name: File or folder name (a ``.py`` file's without ``.py``), as shown.
         spec: SPEC of its ``solve`` ("" when ``problem`` is set).
         problem: Why it cannot be graded (verdict ``error``), or "".
+        root: The student's own files, all its code may read in its jail: its folder (a
+            folder student), its file (a ``.py`` file or a SPEC's file: never the folder
+            beside it, which may hold other students), or "" (a module SPEC: where the module
+            is found).
     """
 
     name: str
     spec: str
     problem: str = ""
+    root: str = ""
 
 
 def _shown(path: Path | str) -> str:
@@ -82,13 +87,13 @@ def _folder_student(folder: Path) -> Student:
     name = _shown(folder.name)
     module = folder / STUDENT_MODULE
     if module.is_file():
-        return Student(name, f"{module}:{STUDENT_FUNCTION}")
+        return Student(name, f"{module}:{STUDENT_FUNCTION}", root=str(folder))
     if why := _dangling(module):
         return Student(name, "", why)
     entries = sorted(p for p in folder.iterdir() if not p.name.startswith((".", "_")))
     files = [p for p in entries if p.suffix == ".py" and p.is_file()]
     if len(files) == 1:
-        return Student(name, f"{files[0]}:{STUDENT_FUNCTION}")
+        return Student(name, f"{files[0]}:{STUDENT_FUNCTION}", root=str(folder))
     found = f"{len(files)} .py files" if files else "no .py file"
     if not files:  # say what is there instead, when it looks like a submission
         whys = [why for p in entries if (why := _not_python(p) or _dangling(p))]
@@ -107,7 +112,7 @@ def _entry_student(path: Path) -> Student | None:
             return None
         return Student(_shown(path.stem if path.suffix == ".py" else path.name), "", why)
     if path.suffix == ".py" and path.is_file():
-        return Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}")
+        return Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}", root=str(path))
     if why := _not_python(path):
         return Student(_shown(path.name), "", why)
     return None
@@ -132,7 +137,7 @@ def _spec_student(text: str) -> Student:
             )
         if not path.is_file():
             raise ConfigError(f"{_shown(text)}: no such file {_shown(where)}")
-        return Student(_shown(path.stem), text)
+        return Student(_shown(path.stem), text, root=str(path))
     if not all(part.isidentifier() for part in where.split(".")):
         raise ConfigError(
             f"{_shown(text)}: {_shown(where)!r} is neither a .py file nor a module name; a SPEC "
@@ -171,7 +176,7 @@ def find_students(submissions: Sequence[str | Path]) -> list[Student]:
         elif path.suffix == ".py":
             if not path.is_file():
                 raise ConfigError(_dangling(path) or f"{_shown(text)}: no such file")
-            students.append(Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}"))
+            students.append(Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}", root=text))
         elif path.exists() and _not_python(path):
             raise ConfigError(_not_python(path))
         elif ":" in text:

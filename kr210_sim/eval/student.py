@@ -37,8 +37,11 @@ import numpy.typing as npt
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.eval.record import VERDICTS, blank_record, seal
+from kr210_sim.robot.bwrap import JailUnavailable
+from kr210_sim.robot.confine import Unconfined
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.ik_sandbox import IkSandbox, Limits, SandboxStop
+from kr210_sim.robot.jail import Jail
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
@@ -90,6 +93,8 @@ class StudentJob:
         min_success: The run's pass bar (share of cycles).
         scratch: The student's scratch folder (its working folder).
         plots: Folder for the error plots (embedded in the record as PNG), or "" for none.
+        jail: Run the student's IK in a bubblewrap jail (:class:`~kr210_sim.robot.jail.Jail`).
+        root: The student's own files, all of its that the jail shows it ("": the SPEC's).
     """
 
     name: str
@@ -104,6 +109,8 @@ class StudentJob:
     min_success: float
     scratch: str
     plots: str = ""
+    jail: bool = True
+    root: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The job as JSON-ready values."""
@@ -271,15 +278,30 @@ def _verdict(job: StudentJob, ik: dict[str, Any], run: dict[str, Any]) -> tuple[
 
 
 def student_sandbox(job: StudentJob) -> IkSandbox:
-    """The sandbox the student's IK runs in (not started): ``job``'s memory limit and time per
-    call, its scratch folder, its output captured, the first fault a stop; the import may take
-    the student's whole time (``job.timeout``), which :class:`StudentClock` then bounds."""
+    """The sandbox the student's IK runs in (not started): with ``job.jail`` in a jail that
+    shows it only its own files (``job.root``); ``job``'s memory limit and time per call, CPU
+    time up to its whole time, its scratch folder, its output captured, the first fault a stop;
+    the import may take the student's whole time (``job.timeout``), which
+    :class:`StudentClock` then bounds.
+
+    Raises:
+        JailUnavailable: ``job.jail`` on a machine where no jail can be made.
+    """
+    confinement = Jail() if job.jail else Unconfined()
+    limits = Limits(
+        call_timeout=job.ik_timeout,
+        memory_mb=job.memory_mb,
+        load_timeout=job.timeout,
+        cpu_s=job.timeout,
+    )
     return IkSandbox(
         job.spec,
-        Limits(call_timeout=job.ik_timeout, memory_mb=job.memory_mb, load_timeout=job.timeout),
+        limits,
         scratch=Path(job.scratch),
         capture=True,
         stop=True,
+        confinement=confinement,
+        root=Path(job.root) if job.root else None,
     )
 
 
@@ -296,7 +318,11 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     record = blank_record(job.name, job.spec, "error", job.problem)
     if job.problem:
         return record
-    sandbox = student_sandbox(job)
+    try:
+        sandbox = student_sandbox(job)
+    except JailUnavailable as exc:
+        record["detail"] = str(exc)
+        return record
     clock = StudentClock(sandbox, job.timeout)
     ik = UserIk(job.spec, clock)
     records: list[dict[str, Any]] = []
@@ -357,6 +383,12 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         "stdout": out.text(),
         "stderr": err.text(),
     }
+    stopped_by_jail = sandbox.confinement.findings()
+    record["jail"] = {**sandbox.confinement.describe(), "stopped": stopped_by_jail}
+    if isinstance(sandbox.confinement, Jail):
+        record["jail"]["cpu_s"] = round(sandbox.confinement.cpu_s, 3)
+    if stopped_by_jail:
+        record["detail"] += f"; the jail stopped: {'; '.join(stopped_by_jail)}"
     record["wall_time_s"]["student"] = clock.used
     record["wall_time_s"]["total"] = time.monotonic() - wall0
     return record

