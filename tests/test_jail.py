@@ -273,6 +273,9 @@ def test_a_fork_bomb_stops_at_the_bound_and_a_daemon_dies_with_the_jail(
     box, jail = _jailed(user, tmp_path)
     with box:
         _answers(box)
+        end = time.monotonic() + 10
+        while not _running(marker) and time.monotonic() < end:  # (its exec, under load)
+            time.sleep(0.05)
         assert len(_running(marker)) == 1  # the daemon is up while the student is
     got = _found(box)
     assert got["stopped"] == "BlockingIOError"
@@ -398,9 +401,11 @@ def test_the_jail_dies_with_the_grader(tmp_path: Path, jail_ok: None) -> None:
     grader = subprocess.Popen([sys.executable, "-c", script])
     try:
         end = time.monotonic() + 60
-        while not ready.exists() and time.monotonic() < end and grader.poll() is None:
+        while not (ready.exists() and _running(marker)) and time.monotonic() < end:
+            if grader.poll() is not None:
+                break
             time.sleep(0.05)
-        assert ready.exists() and len(_running(marker)) == 1
+        assert ready.exists() and len(_running(marker)) == 1  # the daemon is up
         os.kill(grader.pid, signal.SIGKILL)
         grader.wait(timeout=10)
         end = time.monotonic() + 10
