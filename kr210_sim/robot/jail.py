@@ -8,6 +8,8 @@ What the process gets (:meth:`Jail.command` builds bubblewrap's command line):
   has no network at all (a loopback of its own, so not even the host's), no capabilities
   (``--cap-drop ALL``), a uid of its own inside (:data:`INSIDE_UID` when the caller is root) and
   cannot make user namespaces of its own (``--disable-userns``);
+* a seccomp filter (:mod:`kr210_sim.robot.seccomp`): the system calls an IK never makes, and
+  that kernel exploits go through, fail with ``EPERM``;
 * a root of nothing but read-only binds of what Python needs: ``/usr`` and the system's library
   folders, ``/etc/ld.so.cache``, the interpreter's prefixes (its standard library, the
   environment's packages), kr210_sim's own package folder and data folders (not the checkout they
@@ -52,6 +54,7 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.robot import seccomp
 from kr210_sim.robot.bwrap import NAMESPACES, Bwrap, find_bwrap
 from kr210_sim.robot.cgroups import Group, Limiter
 from kr210_sim.robot.confine import Launch
@@ -325,6 +328,12 @@ class Jail:
             ),
             "processes": {"limit": self.processes, "by": self.processes_by()},
             "cpu": cpu,
+            "system_calls": (
+                f"{len(seccomp.numbers(arch))} refused with EPERM (seccomp: tracing, keyrings, "
+                "eBPF, perf, userfaultfd, io_uring, mounts, namespaces, modules, clocks, ...)"
+                if (arch := seccomp.machine()) is not None
+                else "not filtered (no seccomp filter for this machine)"
+            ),
         }
 
     def findings(self) -> list[str]:
@@ -384,8 +393,12 @@ class Jail:
                 opts += ["--perms", f"{mode:04o}", "--file", str(fd), str(path)]
         return opts, fds
 
-    def command(self, launch: Launch, info_fd: int, seeds: list[str]) -> list[str]:
-        """bubblewrap's command line for ``launch`` (see the module doc)."""
+    def command(
+        self, launch: Launch, info_fd: int, seeds: list[str], seccomp_fd: int | None = None
+    ) -> list[str]:
+        """bubblewrap's command line for ``launch`` (see the module doc): ``info_fd`` gets its
+        init's pid, ``seeds`` copy the scratch folder's files in, ``seccomp_fd`` holds the
+        filter (:func:`~kr210_sim.robot.seccomp.program`; None: none)."""
         scratch = str(launch.scratch)
         argv = [str(self.bwrap.path), *NAMESPACES, "--uid", str(self.uid), "--gid", str(self.gid)]
         argv += ["--hostname", "jail", "--clearenv"]
@@ -395,6 +408,8 @@ class Jail:
         for k, v in sorted(env.items()):
             argv += ["--setenv", k, v]
         argv += ["--info-fd", str(info_fd)]
+        if seccomp_fd is not None:
+            argv += ["--seccomp", str(seccomp_fd)]
         for name in SYSTEM_DIRS:
             p = Path(name)
             if p.is_symlink():
@@ -419,8 +434,11 @@ class Jail:
         group = self.limiter.group()
         info_r, info_w = os.pipe()
         seeds, seed_fds = self._seeds(Path(launch.scratch))
+        seccomp_fd = _filter_fd()
+        if seccomp_fd is not None:
+            seed_fds.append(seccomp_fd)  # passed, then closed here, as the seeds are
         try:
-            argv = self.command(launch, info_w, seeds)
+            argv = self.command(launch, info_w, seeds, seccomp_fd)
             if group is not None:
                 argv = ["/bin/sh", "-c", JOIN, "sh", *map(str, group.procs), "--", *argv]
             out = subprocess.PIPE if launch.capture else None
@@ -513,6 +531,21 @@ class Jail:
     def _note(self, line: str) -> None:
         if line not in self._found:
             self._found.append(line)
+
+
+def _filter_fd() -> int | None:
+    """A pipe's reading end holding this machine's seccomp filter (None: a machine the filter
+    does not know)."""
+    arch = seccomp.machine()
+    if arch is None:
+        return None
+    data = seccomp.program(arch)
+    r, w = os.pipe()  # about 450 bytes: far below a pipe's buffer
+    try:
+        os.write(w, data)
+    finally:
+        os.close(w)
+    return r
 
 
 def _read_init(fd: int) -> int | None:
