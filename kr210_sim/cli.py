@@ -494,8 +494,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: Commands whose job ends the start-up's hold itself (``interrupts.end_start_up``), where its
 #: own handling of an interrupt begins: a signal during the start-up gives their report of no
-#: cycles. The others end it before they are called, and write nothing for such a signal.
-_OWN_START = frozenset({"run", "view"})
+#: cycles (grade's: of no students). The others end it before they are called, and write
+#: nothing for such a signal.
+_OWN_START = frozenset({"run", "view", "grade"})
 
 
 def main(argv: list[str] | None = None) -> int:

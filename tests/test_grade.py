@@ -407,3 +407,102 @@ def test_a_hostile_class_is_graded_and_its_page_runs_nothing(tmp_path: Path) -> 
     with Chromium(width=1000, height=700, timeout=60) as browser:
         shown = page_in_browser(browser, out / "grade.html")
     check_page(shown, [s["name"] for s in report["students"]])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("delay", "second"), [(0.002, "SIGTERM"), (0.01, "SIGINT")])
+def test_a_second_signal_just_after_the_first_keeps_the_report(
+    tmp_path: Path, delay: float, second: str
+) -> None:
+    """A CI cancel (SIGTERM to the process group, then again) printed "writing the report of
+    those" and wrote nothing, 3 times in 3."""
+    folder = make_class(tmp_path / "class")
+    cwd, tmp = tmp_path / "cwd", tmp_path / "tmp"
+    cwd.mkdir()
+    tmp.mkdir()
+    report = tmp_path / "grade.json"
+    args = [str(folder / "correct.py"), str(folder / "hang.py"), "--workers", "2"]
+    args += ["--cases", "0", "--cycles", "1", "--ik-timeout", "600", "--report", str(report)]
+    proc = _grade(args, cwd, tmp)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()  # the correct student finished; hang is still graded
+        assert "correct" in line and " pass " in line, line
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGTERM)
+        time.sleep(delay)
+        proc.send_signal(getattr(signal, second))
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143, stderr  # the first signal's code
+    assert "Traceback" not in stderr
+    data = json.loads(report.read_text())
+    assert data["interrupted_by"] == "SIGTERM"
+    assert [(s["name"], s["verdict"]) for s in data["students"]] == [("correct", "pass")]
+    assert _ours_running(str(tmp_path)) == []
+    assert _tree(tmp) == []
+
+
+@pytest.mark.slow
+def test_under_the_python_api_a_second_ctrl_c_keeps_the_report(tmp_path: Path) -> None:
+    """The API installs no handlers of ours: grade's own wind-up holds the second Ctrl-C."""
+    folder = make_class(tmp_path / "class")
+    report = tmp_path / "grade.json"
+    script = (
+        "import sys, kr210_sim\n"
+        "try:\n"
+        f"    kr210_sim.grade([{str(folder / 'correct.py')!r}, {str(folder / 'hang.py')!r}],\n"
+        "        cases=0, cycles=1, ik_timeout=600, workers=2, out=sys.stdout,\n"
+        f"        report={str(report)!r})\n"
+        "except kr210_sim.RunInterrupted as exc:\n"
+        "    print('raised', dict(exc.report.verdicts), flush=True)\n"
+        "    sys.exit(128 + exc.signum)\n"
+    )
+    env = dict(os.environ, TMPDIR=str(tmp_path), PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert "correct" in line and " pass " in line, line
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.005)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert "raised {'correct': 'pass'}" in out and "Traceback" not in err
+    data = json.loads(report.read_text())
+    assert data["interrupted_by"] == "SIGINT" and len(data["students"]) == 1
+    assert _ours_running(str(tmp_path)) == []
+
+
+@pytest.mark.slow
+def test_a_signal_during_start_up_gives_a_report_of_no_students(tmp_path: Path) -> None:
+    from test_signals import _held_at  # a start-up held at one import
+
+    report = tmp_path / "grade.json"
+    report.write_text('{"an earlier grade": true}')  # must not be taken for this one's
+    args = ["grade", str(EXAMPLE), "--cases", "0", "--cycles", "1", "--report", str(report)]
+    proc, mark = _held_at("kr210_sim.eval.grade", args, tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    time.sleep(0.005)
+    proc.send_signal(signal.SIGTERM)
+    Path(f"{mark}.go").touch()
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert err.splitlines() == [
+        "kr210_sim: interrupted (SIGTERM) after 0 of 1 students; writing the report of those"
+    ]
+    data = json.loads(report.read_text())
+    assert data["interrupted_by"] == "SIGTERM" and data["students"] == []
+    assert "INTERRUPTED (SIGTERM)" in out

@@ -21,8 +21,9 @@ the student is ``timeout`` with a detail that says so.
 
 The scratch folders (one per student, named by its index, the student's working folder) and the
 plots live in one temporary folder that is removed at the end. On Ctrl-C or SIGTERM the running
-students are killed, the report of the students finished so far is written, and the exit code
-says which signal it was.
+students are killed, the report of the students finished so far is written (whole, however
+many signals follow: :func:`~kr210_sim.util.interrupts.winding_up`), and the exit code says
+which signal it was; a signal during the command's start-up gives a report of no students.
 """
 
 from __future__ import annotations
@@ -63,7 +64,8 @@ from kr210_sim.robot.ik_sandbox import DEFAULT_MEMORY_MB, MIN_MEMORY_MB
 from kr210_sim.robot.jail import Jail, unjailed, unjailed_warning
 from kr210_sim.robot.user_ik import spec_file
 from kr210_sim.sim.runner import MAX_CYCLES
-from kr210_sim.util.interrupts import signal_name
+from kr210_sim.util.interrupts import end_start_up, signal_name, winding_up
+from kr210_sim.util.outputs import check_distinct, check_writable, write_json_atomic
 
 __all__ = [
     "STUDENT_FUNCTION",
@@ -449,8 +451,6 @@ def grade(
         JailUnavailable: ``settings.jail`` where no jail can be made (what to install or
             enable, and ``--no-jail``).
     """
-    from kr210_sim.util.outputs import check_distinct, check_writable
-
     out = out or sys.stdout
     confinement = _confinement(settings)
     for path in (report_path, html_path):
@@ -471,7 +471,8 @@ def grade(
         out.write(f"[{len(records):>{width}}/{len(students)}] {student_line(record)}\n")
         out.flush()
 
-    try:
+    try:  # an interrupt before the first student ends: a report of none, marked interrupted
+        end_start_up()  # the command's: a signal held since its start-up is raised here
         while pending or pool.running:
             while pending and len(pool.running) < settings.workers:
                 index, student = pending.pop(0)
@@ -487,21 +488,25 @@ def grade(
                 finished(record)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (kr210_sim.util.interrupts)
         interrupted = exc
-        sys.stderr.write(
-            f"kr210_sim: interrupted ({signal_name(exc)}) after {len(records)} of "
-            f"{len(students)} students; writing the report of those\n"
-        )
-    finally:
+    except BaseException:
         pool.stop()
         shutil.rmtree(root, ignore_errors=True)
-    config = {**settings.config(), "confinement": confinement}
-    report = build_report(records, config, settings.workers, time.monotonic() - wall0, interrupted)
-    if report_path is not None:
-        from kr210_sim.util.outputs import write_json_atomic
-
-        write_json_atomic(report_path, report)
-    written = None
-    if html_path is not None:
-        write_html(html_path, report, records)
-        written = html_path
+        raise
+    with winding_up(interrupted):  # whatever signals follow: the students stopped, the report whole
+        if interrupted is not None:
+            sys.stderr.write(
+                f"kr210_sim: interrupted ({signal_name(interrupted)}) after {len(records)} of "
+                f"{len(students)} students; writing the report of those\n"
+            )
+        pool.stop()
+        shutil.rmtree(root, ignore_errors=True)
+        config = {**settings.config(), "confinement": confinement}
+        wall = time.monotonic() - wall0
+        report = build_report(records, config, settings.workers, wall, interrupted)
+        if report_path is not None:
+            write_json_atomic(report_path, report)
+        written = None
+        if html_path is not None:
+            write_html(html_path, report, records)
+            written = html_path
     return GradeResult(report, table(report), interrupted, written, records)
