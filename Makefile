@@ -2,9 +2,9 @@
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
-# Extras to install (the gym extra runs the Gymnasium tests); `make test EXTRAS=test,gym,ray`
-# adds Ray (CI does) so the cluster tests run.
-EXTRAS ?= test,gym
+# Extras to install (the gym extra runs the Gymnasium tests, ros the original exercise's
+# IK_server.py); `make test EXTRAS=test,gym,ros,ray` adds Ray (CI does) so the cluster tests run.
+EXTRAS ?= test,gym,ros
 STAMP := $(VENV)/.installed-$(EXTRAS)
 
 .PHONY: run test lint bench scene video evaluate docs clean

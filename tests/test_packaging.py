@@ -43,6 +43,9 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/assets/kr210/kr210.urdf",
         "kr210_sim/assets/kr210/meshes/link_1.stl",
         "kr210_sim/scenes/kr210_cell.xml",
+        "kr210_sim/robot/ros/shims/rospy/__init__.py",
+        "kr210_sim/robot/ros/shims/tf/transformations.py",
+        "kr210_sim/robot/ros/shims/kuka_arm/srv/__init__.py",
     } <= names
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
     assert b"MIT License" in zipfile.ZipFile(wheel).read(licence)
@@ -67,6 +70,11 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         [str(python), "-c", "import kr210_sim.util.paths as p; print(p.ROOT)"], elsewhere, env
     )
     assert Path(where.strip()) == site / "kr210_sim"  # the installed copy, not the sources
+    shims = (  # the ROS modules an original-form IK_server.py imports, from the installed copy
+        "import sys; from kr210_sim.robot.ros.server import SHIMS; sys.path.insert(0, str(SHIMS)); "
+        "import rospy, tf.transformations as t, kuka_arm.srv; print(t.__file__)"
+    )
+    assert _run([str(python), "-c", shims], elsewhere, env).startswith(str(site / "kr210_sim"))
     out = _run([str(python), "-m", "kr210_sim", "run", "--cycles", "1"], elsewhere, env)
     assert "PASS: 1/1" in out
     report = json.loads((elsewhere / "reports" / "run.json").read_text())

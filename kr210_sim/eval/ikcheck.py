@@ -39,13 +39,14 @@ import numpy.typing as npt
 from kr210_sim.errors import ConfigError, UnreachablePoseError
 from kr210_sim.robot.description import ARM_JOINTS, RobotDescription, load_robot
 from kr210_sim.robot.ik_guard import (
+    BATCH,
     MAX_LINE_STEP,
     ORIENTATION_TOL,
     POSITION_TOL,
     Assessment,
     assess,
     branch_change,
-    call_timed,
+    call_many,
 )
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.quaternions import pose_matrix
@@ -273,14 +274,20 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
 def check(
     kin: Kinematics, ik: UserIk, cases: list[Case], progress: TextIO | None = None
 ) -> list[dict[str, Any]]:
-    """Call ``ik`` on every case and judge each answer with ``kin``; one record per case."""
+    """Call ``ik`` on every case and judge each answer with ``kin``; one record per case (an IK
+    that takes batches, a ROS-form server, is asked :data:`~kr210_sim.robot.ik_guard.BATCH`
+    cases per request)."""
     line = ProgressLine(progress or sys.stderr)
     line.last = line.start  # the first line only after an interval: quick checks stay quiet
     shown = False
     records = []
-    for i, case in enumerate(cases, start=1):
-        raw, dt = call_timed(ik.function, case.T, case.q_ref)
-        records.append(case_record(kin, case, assess(kin, case.T, case.q_ref, raw, dt)))
+    step = BATCH if ik.batch is not None else 1
+    for first in range(0, len(cases), step):
+        chunk = cases[first : first + step]
+        got = call_many(ik, [c.T for c in chunk], [c.q_ref for c in chunk])
+        for case, (raw, dt) in zip(chunk, got, strict=True):
+            records.append(case_record(kin, case, assess(kin, case.T, case.q_ref, raw, dt)))
+        i = first + len(chunk)
         if line.due() or (shown and i == len(cases)):
             shown = True
             line.show(f"ik-check {bar(i / len(cases))} {i}/{len(cases)} cases")

@@ -44,6 +44,7 @@ from kr210_sim.plan.routing import Router, clear_ready
 from kr210_sim.plan.timing import rest_to_rest_bound
 from kr210_sim.plan.trajectory import (
     JointLimits,
+    line_poses,
     plan_cartesian_line,
     plan_ptp,
 )
@@ -276,7 +277,8 @@ class Planner:
         t0 = time.perf_counter()
         T_start = self.kinematics.forward(q_start)
         ik: Callable[[FloatArray, FloatArray], FloatArray] = self.kinematics.nearest
-        if self.user_ik is not None:
+        if self.user_ik is not None:  # a ROS-form server gets the line in one request
+            self.user_ik.prefetch(line_poses(T_start, T_goal, self.motion.lin_step))
             ik = self.user_ik.line_ik(f"{phase} line")
         traj = plan_cartesian_line(
             T_start,

@@ -350,6 +350,30 @@ class LineTrajectory(Trajectory):
         return q, dq * sd, ddq * sd * sd + dq * sdd
 
 
+def line_poses(T_start: npt.ArrayLike, T_goal: npt.ArrayLike, step: float) -> list[FloatArray]:
+    """The poses (4x4) :func:`plan_cartesian_line` asks its IK for, in order: the line from
+    ``T_start`` to ``T_goal`` sampled every ``step`` [m] (rotation counted as 0.25 m per rad),
+    ``T_start`` itself left out; none for a line of no length. A batch-taking IK is asked for
+    them at once (:meth:`~kr210_sim.robot.ik_guard.CheckedIk.prefetch`)."""
+    Ts = np.asarray(T_start, dtype=np.float64)
+    Tg = np.asarray(T_goal, dtype=np.float64)
+    dp = Tg[:3, 3] - Ts[:3, 3]
+    length = float(np.linalg.norm(dp))
+    rv = _rotvec(Ts[:3, :3].T @ Tg[:3, :3])
+    angle = float(np.linalg.norm(rv))
+    if length < 1e-9 and angle < 1e-9:
+        return []
+    n = max(1, math.ceil(max(length, 0.25 * angle) / step))
+    poses = []
+    for i in range(1, n + 1):
+        u = i / n
+        T = np.eye(4)
+        T[:3, :3] = Ts[:3, :3] @ _rotation(rv * u)
+        T[:3, 3] = Ts[:3, 3] + u * dp
+        poses.append(T)
+    return poses
+
+
 def plan_cartesian_line(
     T_start: npt.ArrayLike,
     T_goal: npt.ArrayLike,
@@ -379,22 +403,16 @@ def plan_cartesian_line(
     q0 = np.asarray(q_start, dtype=np.float64).reshape(6)
     if speed <= 0 or step <= 0:
         raise PlanningError(f"speed and step must be positive, got {speed}, {step}")
-    dp = Tg[:3, 3] - Ts[:3, 3]
-    length = float(np.linalg.norm(dp))
-    rv = _rotvec(Ts[:3, :3].T @ Tg[:3, :3])
-    angle = float(np.linalg.norm(rv))
-    # Rotation counts as 0.25 m per rad when choosing the number of samples.
-    n = max(1, math.ceil(max(length, 0.25 * angle) / step))
-    if length < 1e-9 and angle < 1e-9:
+    length = float(np.linalg.norm(Tg[:3, 3] - Ts[:3, 3]))
+    angle = float(np.linalg.norm(_rotvec(Ts[:3, :3].T @ Tg[:3, :3])))
+    poses = line_poses(Ts, Tg, step)  # rotation counts as 0.25 m per rad in the sample count
+    if not poses:
         return LineTrajectory(q0[None].copy(), 0.0, None, Ts, Tg)
+    n = len(poses)
     knots = np.empty((n + 1, 6))
     knots[0] = q0
     q_prev = q0
-    for i in range(1, n + 1):
-        u = i / n
-        T = np.eye(4)
-        T[:3, :3] = Ts[:3, :3] @ _rotation(rv * u)
-        T[:3, 3] = Ts[:3, 3] + u * dp
+    for i, T in enumerate(poses, start=1):
         q = ik(T, q_prev)
         if np.max(np.abs(q - q_prev)) > MAX_SAMPLE_JUMP:
             raise PlanningError(

@@ -4,7 +4,8 @@ user's IK and answers its calls.
 ``python -m kr210_sim.robot.ik_child SPEC REQUEST_FD ANSWER_FD PARENT_PID LIMITS_JSON`` sets its
 limits (:func:`set_limits`), imports the SPEC with :func:`~kr210_sim.robot.user_ik.load_ik` (so a
 bad SPEC gives the same one-line message as in process), says ``ready`` and then answers
-``solve(T, q_ref)`` requests read from REQUEST_FD until that pipe closes. Each answer is one
+``solve(T, q_ref)`` requests read from REQUEST_FD until that pipe closes, one pose each or many
+(a batch: :func:`reply_batch`; a ROS-form server takes them as one request). Each answer is one
 message (:func:`reply`) carrying its request's number ``n``; texts in it are cut to
 :data:`~kr210_sim.robot.ik_wire.MAX_TEXT` characters, so an exception with a 2 MB message is
 still an answer.
@@ -26,7 +27,7 @@ import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError
 from kr210_sim.robot.ik_wire import receive, send, short
-from kr210_sim.robot.user_ik import load_ik
+from kr210_sim.robot.user_ik import UserIk, load_ik
 from kr210_sim.util.processes import die_with_parent
 
 FloatArray = npt.NDArray[np.float64]
@@ -34,6 +35,34 @@ FloatArray = npt.NDArray[np.float64]
 #: Most numbers an answer carries back: six angles, or the first of a larger array's (its shape
 #: is sent whole, so the guard can say "returned shape (100, 6)").
 MAX_NUMBERS = 64
+#: Most notes (what Python 2 semantics changed in a ROS-form server) one message carries.
+MAX_NOTES = 20
+
+
+def _fault(exc: BaseException) -> dict[str, Any]:
+    """An exception of the user's code as a message (see :func:`reply`)."""
+    if isinstance(exc, MemoryError):
+        return {"memory": True}
+    if isinstance(exc, SystemExit):
+        return {"exit": exc.code if isinstance(exc.code, int | None) else short(str(exc.code))}
+    return {"raised": short(type(exc).__name__, 200), "message": short(str(exc))}
+
+
+def describe(out: Any) -> dict[str, Any]:
+    """An answer of the user's code as a message (see :func:`reply`)."""
+    if isinstance(out, BaseException):
+        return _fault(out)
+    if out is None:
+        return {"none": True}
+    try:
+        arr = np.asarray(out, dtype=np.float64)
+    except MemoryError:
+        return {"memory": True}
+    except Exception as exc:
+        return {"object": short(type(out).__name__, 200), "why": short(str(exc))}
+    if arr.size > MAX_NUMBERS:
+        return {"q": [], "shape": list(arr.shape[:1]) + [0] * (arr.ndim - 1)}
+    return {"q": arr.reshape(-1).tolist(), "shape": list(arr.shape)}
 
 
 def reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
@@ -47,23 +76,29 @@ def reply(fn: Any, T: FloatArray, q_ref: FloatArray) -> dict[str, Any]:
     """
     try:
         out = fn(T, q_ref)
-    except MemoryError:
-        return {"memory": True}
-    except SystemExit as exc:
-        return {"exit": exc.code if isinstance(exc.code, int | None) else short(str(exc.code))}
     except BaseException as exc:  # every fault of the user's code is an answer
-        return {"raised": short(type(exc).__name__, 200), "message": short(str(exc))}
-    if out is None:
-        return {"none": True}
-    try:
-        arr = np.asarray(out, dtype=np.float64)
-    except MemoryError:
-        return {"memory": True}
-    except Exception as exc:
-        return {"object": short(type(out).__name__, 200), "why": short(str(exc))}
-    if arr.size > MAX_NUMBERS:
-        return {"q": [], "shape": list(arr.shape[:1]) + [0] * (arr.ndim - 1)}
-    return {"q": arr.reshape(-1).tolist(), "shape": list(arr.shape)}
+        return _fault(exc)
+    return describe(out)
+
+
+def reply_batch(user: UserIk, poses: list[FloatArray], q_refs: list[FloatArray]) -> dict[str, Any]:
+    """The answers to many poses as one message: ``{"answers": [one message per pose, as
+    :func:`reply`'s]}``, or the one message of a fault that ends the process (``memory``,
+    ``exit``). An IK that takes batches (:attr:`~kr210_sim.robot.user_ik.UserIk.batch`) gets
+    them in one call (a fault of that call is every pose's answer); another is called pose by
+    pose with its ``q_ref``."""
+    if user.batch is None:
+        answers = [reply(user.function, T, q) for T, q in zip(poses, q_refs, strict=True)]
+    else:
+        try:
+            outs: list[Any] = list(user.batch(poses))
+        except BaseException as exc:
+            outs = [exc] * len(poses)
+        answers = [describe(o) for o in outs]
+    for a in answers:
+        if "exit" in a or "memory" in a:
+            return a
+    return {"answers": answers}
 
 
 #: CPU time past ``cpu_s`` before SIGKILL follows SIGXCPU [s].
@@ -125,21 +160,29 @@ def serve(argv: list[str]) -> int:
     spec, req, ans, parent, limits = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
     set_limits(json.loads(limits), parent)
     try:
-        fn = load_ik(spec).function
+        user = load_ik(spec)
     except MemoryError:
         send(ans, {"memory": True})
         return 1
     except IkSpecError as exc:
         send(ans, _load_failure(exc))
         return 1
-    send(ans, {"ready": True})
+    send(ans, {"ready": True, "batch": user.batch is not None})
     while True:
         message = receive(req, None)
         if not isinstance(message, dict):
             return 0
-        T = np.asarray(message["T"], dtype=np.float64).reshape(4, 4)
-        q_ref = np.asarray(message["q"], dtype=np.float64)
-        answer = reply(fn, T, q_ref)
+        if "batch" in message:
+            poses = [np.asarray(T, dtype=np.float64).reshape(4, 4) for T in message["batch"]]
+            q_refs = [np.asarray(q, dtype=np.float64) for q in message["q"]]
+            answer = reply_batch(user, poses, q_refs)
+        else:
+            T = np.asarray(message["T"], dtype=np.float64).reshape(4, 4)
+            q_ref = np.asarray(message["q"], dtype=np.float64)
+            answer = reply(user.function, T, q_ref)
+        notes = user.notes() if user.notes is not None else []
+        if notes:
+            answer["notes"] = [short(n, 400) for n in notes[:MAX_NOTES]]
         send(ans, {"n": message.get("n"), **answer})
         if "exit" in answer or "memory" in answer:
             code = answer.get("exit")

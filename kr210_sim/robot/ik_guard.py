@@ -11,14 +11,18 @@
 
 :class:`CheckedIk` applies these checks for the planner and raises
 :class:`~kr210_sim.errors.IkFailedError` with which pose and what was wrong; it also times every
-call (``time.perf_counter`` around the user's function only).
+call (``time.perf_counter`` around the user's function only). An IK that takes many poses in one
+call (:attr:`~kr210_sim.robot.user_ik.UserIk.batch`: a ROS-form server, as MoveIt sent it a
+planned path) is asked in batches of at most :data:`BATCH` poses (:func:`call_many`), and the
+planner asks it for a straight line's samples in one request before it walks the line
+(:meth:`CheckedIk.prefetch`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,6 +48,8 @@ ORIENTATION_TOL = 1e-3
 #: randomised); a wrist flip moves joints 4 and 6 by about pi, a 2 pi twin by 2 pi, an elbow or
 #: shoulder flip by tenths of a radian or more. 0.1 rad leaves a 6x margin for correct answers.
 MAX_LINE_STEP = 0.1
+#: Most poses one batch asks a batch-taking IK for (MoveIt's requests held tens of poses).
+BATCH = 64
 
 
 # --------------------------------------------------------------------------- judging
@@ -99,6 +105,31 @@ def call_timed(fn: Callable[..., Any], T: FloatArray, q_ref: FloatArray) -> tupl
     except (Exception, SystemExit) as exc:
         out = exc
     return out, time.perf_counter() - t0
+
+
+def call_many(
+    user: UserIk, poses: Sequence[FloatArray], q_refs: Sequence[FloatArray]
+) -> list[tuple[Any, float]]:
+    """Every pose's answer (or exception) and time [s], as :func:`call_timed` gives them: pose
+    by pose, or, for an IK that takes batches, in requests of at most :data:`BATCH` poses, each
+    pose timed at its request's time over its poses. An exception the batch call raises (a
+    timeout, a dead process) is the answer of each of its poses; ``KeyboardInterrupt`` and
+    other ``BaseException`` propagate."""
+    if user.batch is None:
+        return [call_timed(user.function, T, q) for T, q in zip(poses, q_refs, strict=True)]
+    out: list[tuple[Any, float]] = []
+    for i in range(0, len(poses), BATCH):
+        chunk = [np.array(T, dtype=np.float64) for T in poses[i : i + BATCH]]
+        t0 = time.perf_counter()
+        try:
+            answers: list[Any] = list(user.batch(chunk))
+        except (Exception, SystemExit) as exc:
+            answers = [exc] * len(chunk)
+        if len(answers) != len(chunk):
+            answers = [ValueError(f"{len(answers)} answers to {len(chunk)} poses")] * len(chunk)
+        dt = (time.perf_counter() - t0) / max(1, len(chunk))
+        out += [(a, dt) for a in answers]
+    return out
 
 
 def _as_angles(raw: Any) -> tuple[FloatArray | None, str]:
@@ -298,6 +329,19 @@ class CheckedIk:
         self.user = user
         self.kin = kin
         self.stats = CallStats()
+        self._ahead: dict[bytes, list[tuple[Any, float]]] = {}
+
+    def prefetch(self, poses: Sequence[FloatArray]) -> None:
+        """Ask a batch-taking IK for ``poses`` now, in one request (:func:`call_many`), for
+        :meth:`solve` to take their answers from when it is asked for those poses (the same
+        numbers, bit for bit); nothing for an IK that takes one pose at a time. Answers
+        fetched before and not taken are dropped."""
+        self._ahead = {}
+        if self.user.batch is None or not poses:
+            return
+        zeros = [np.zeros(6)] * len(poses)
+        for T, got in zip(poses, call_many(self.user, poses, zeros), strict=True):
+            self._ahead.setdefault(np.asarray(T, dtype=np.float64).tobytes(), []).append(got)
 
     def solve(
         self, T: FloatArray, q_ref: FloatArray, what: str, max_step: float | None = None
@@ -317,7 +361,8 @@ class CheckedIk:
             UnreachablePoseError: When the function returns None and our IK agrees the pose is
                 unreachable.
         """
-        raw, dt = call_timed(self.user.function, T, q_ref)
+        ahead = self._ahead.get(np.asarray(T, dtype=np.float64).tobytes())
+        raw, dt = ahead.pop(0) if ahead else call_timed(self.user.function, T, q_ref)
         self.stats.add(dt)
         a = assess(self.kin, T, q_ref, raw, dt)
         where = f"{what} {_pose_text(T)}"

@@ -49,6 +49,7 @@ import tempfile
 import threading
 import time
 import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, NoReturn
@@ -58,8 +59,9 @@ import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, IkSpecError
 from kr210_sim.robot.confine import Confinement, Launch, Unconfined
-from kr210_sim.robot.ik_wire import MAX_FRAME, Oversized, receive, send
-from kr210_sim.robot.user_ik import UserIk, load_ik, spec_files
+from kr210_sim.robot.ik_wire import Oversized, answer_of, oversized, receive, refusal, send, short
+from kr210_sim.robot.ros.form import is_ros_form, resolve_spec, seed_scratch
+from kr210_sim.robot.user_ik import UserIk, load_ik, spec_file, spec_files
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -77,6 +79,11 @@ OPEN_FILES = 256
 LOAD_TIMEOUT = 30.0
 #: Bytes of output kept per process: the first and the last half of it.
 KEPT_BYTES = 32_768
+#: Most notes kept per sandbox (see :attr:`IkSandbox.notes`).
+MAX_NOTES = 200
+#: Time a ROS-form server's script has to reach ``rospy.spin()`` under ``--ik`` (its sympy
+#: set-up can take minutes) [s].
+ROS_LOAD_TIMEOUT = 600.0
 #: The user's process: :func:`kr210_sim.robot.ik_child.serve`.
 CHILD_MODULE = "kr210_sim.robot.ik_child"
 
@@ -224,7 +231,11 @@ class IkSandbox:
         confinement: Confinement | None = None,
         root: Path | None = None,
     ) -> None:
-        self.spec = spec
+        self.spec = spec = resolve_spec(spec)
+        source = spec_file(spec)
+        #: A ROS-form server (:mod:`kr210_sim.robot.ros`): it takes batches, and the files
+        #: beside it are copied into its working folder.
+        self.ros = source is not None and is_ros_form(source)
         self.confinement: Confinement = confinement or Unconfined()
         files = spec_files(spec)
         self.readable = (root.resolve(),) if root is not None else files.readable
@@ -237,7 +248,11 @@ class IkSandbox:
         self.stderr = Captured()
         self.starts = 0
         self.calls = 0
+        #: Poses asked for, in all (a batch asks for many in one call).
+        self.poses = 0
         self.faults: list[str] = []
+        #: What Python 2 semantics changed in a ROS-form server's code (its notes, in order).
+        self.notes: list[str] = []
         self._own_scratch = scratch is None
         self.scratch = Path(tempfile.mkdtemp(prefix="kr210_ik_")) if scratch is None else scratch
         self.scratch.mkdir(parents=True, exist_ok=True)
@@ -299,6 +314,8 @@ class IkSandbox:
             SandboxStop: The same with ``stop=True`` (``error``, ``timeout`` or ``crashed``).
         """
         self.close_process()
+        if self.ros:  # as under rosrun, the files beside the script are in its working folder
+            seed_scratch(Path(self.spec.rpartition(":")[0]), self.scratch)
         req_r, req_w = os.pipe()
         ans_r, ans_w = os.pipe()
         try:
@@ -392,34 +409,85 @@ class IkSandbox:
         self._fault("crashed", what)
 
     # ------------------------------------------------------------------ calls
-    def __call__(self, T: FloatArray, q_ref: FloatArray) -> Any:
-        """``solve(T, q_ref)`` in the user's process: the answer as it came (six numbers as an
-        array, None, or the exception it raised, re-raised here with its type's name)."""
+    def _request(self, message: dict[str, Any], limit: float | None) -> dict[str, Any] | Oversized:
+        """Send one request (numbered) and wait ``limit`` [s] for its answer; a fault raises
+        (:meth:`_fault`, :meth:`_died`)."""
         if self._proc is None or self._proc.poll() is not None:
             self.start()
         self.calls += 1
         req_w, ans_r = self._fds
-        T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
-        q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
         try:
-            send(req_w, {"n": self.calls, "T": T_list, "q": q_list})
+            send(req_w, {"n": self.calls, **message})
         except OSError:
             self._died("before a call", None)
-        limit = self.limits.call_timeout
         until = self._until(limit)
         while True:
             try:
-                message = receive(ans_r, until)
+                got = receive(ans_r, until)
             except TimeoutError:
                 self._fault("timeout", f"no answer within {_seconds(self._limit(limit))}")
-            if isinstance(message, Oversized):
-                return _oversized(message.size)
-            if message is None or "exit" in message or message.get("memory"):
-                self._died("during a call", message)
-            if message.get("n") == self.calls:
-                return _answer(message)
+            if isinstance(got, Oversized):
+                return got
+            if got is None or "exit" in got or got.get("memory"):
+                self._died("during a call", got)
+            if got.get("n") == self.calls:
+                notes = got.get("notes")
+                if isinstance(notes, list) and len(self.notes) < MAX_NOTES:
+                    self.notes += [short(str(n), 400) for n in notes[:MAX_NOTES]]
+                return got
             # else: a message of an earlier call's (the user's code wrote one of its own to the
             # pipe before its answer): dropped, as the deadline still runs
+
+    def __call__(self, T: FloatArray, q_ref: FloatArray) -> Any:
+        """``solve(T, q_ref)`` in the user's process: the answer as it came (six numbers as an
+        array, None, or the exception it raised, re-raised here with its type's name)."""
+        self.poses += 1
+        T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
+        q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
+        got = self._request({"T": T_list, "q": q_list}, self.limits.call_timeout)
+        if isinstance(got, Oversized):
+            return oversized(got.size)
+        return answer_of(got)
+
+    def batch(self, poses: Sequence[FloatArray], q_refs: Sequence[FloatArray] = ()) -> list[Any]:
+        """Many poses in one call (a ROS-form server gets them as one request, as MoveIt sent
+        a planned path): one answer per pose, as :meth:`__call__` gives it, but an exception
+        the user's code raised on a pose is that pose's answer, not raised. The call may take
+        ``call_timeout`` per pose.
+
+        Args:
+            poses: The poses (4x4).
+            q_refs: The joint state sent with each (zeros when not given; a ROS-form server
+                does not see it).
+        """
+        n = len(poses)
+        self.poses += n
+        qs = list(q_refs) or [np.zeros(6)] * n
+        message = {
+            "batch": [np.asarray(T, dtype=np.float64).reshape(16).tolist() for T in poses],
+            "q": [np.asarray(q, dtype=np.float64).reshape(-1).tolist() for q in qs],
+        }
+        limit = None if self.limits.call_timeout is None else self.limits.call_timeout * n
+        got = self._request(message, limit)
+        if isinstance(got, Oversized):
+            return [oversized(got.size)] * n
+        entries = got.get("answers")
+        if not isinstance(entries, list) or len(entries) != n:
+            return [refusal("a malformed answer", f"the answers to {n} poses did not come")] * n
+        out: list[Any] = []
+        for e in entries:
+            try:
+                out.append(
+                    answer_of(e) if isinstance(e, dict) else refusal("a malformed answer", "")
+                )
+            except Exception as exc:  # the exception the user's code raised on this pose
+                out.append(exc)
+        return out
+
+    def user_ik(self) -> UserIk:
+        """This sandbox as a :class:`~kr210_sim.robot.user_ik.UserIk`: its SPEC, calls, and
+        for a ROS-form server its batches."""
+        return UserIk(self.spec, self, batch=self.batch if self.ros else None)
 
     # ------------------------------------------------------------------ ending
     @staticmethod
@@ -454,43 +522,7 @@ class IkSandbox:
         self.close()
 
 
-def _refusal(what: str, why: str) -> Any:
-    """An object standing for an answer that is not numbers: named ``what``, and converting it
-    (``float``, ``numpy.asarray``) raises ``TypeError(why)``, which the guard reports."""
-
-    def refuse(*args: object, **kwargs: object) -> None:
-        raise TypeError(why)
-
-    return type(what, (), {"__array__": refuse, "__float__": refuse})()
-
-
-def _oversized(size: int) -> Any:
-    """The unusable answer that stands for a message of ``size`` bytes, over the bound."""
-    return _refusal(
-        f"an answer of {size:,} bytes",
-        f"a message may hold at most {MAX_FRAME:,} bytes; six angles take about 150",
-    )
-
-
-def _answer(message: dict[str, Any]) -> Any:
-    """The user's answer from its message (see :func:`kr210_sim.robot.ik_child.reply`)."""
-    if "raised" in message:
-        kind = type(str(message["raised"]), (Exception,), {})
-        raise kind(str(message.get("message", "")))
-    if message.get("none"):
-        return None
-    if "q" in message:
-        try:  # what the user's process sent: a list of numbers and its shape, or so it says
-            q = np.asarray(message["q"], dtype=np.float64)
-            return q.reshape(tuple(int(n) for n in message.get("shape", q.shape)))
-        except (TypeError, ValueError, OverflowError) as exc:
-            return _refusal(
-                "a malformed answer", f"the answer's message does not hold numbers: {exc}"
-            )
-    return _refusal(str(message.get("object", "object")), str(message.get("why", "")))
-
-
-_GUARDED: dict[tuple[str, float, bool], UserIk] = {}
+_GUARDED: dict[tuple[str, float | None, bool], UserIk] = {}
 
 
 def load_user_ik(spec: str, timeout: float | None = None, jail: bool | None = None) -> UserIk:
@@ -502,26 +534,34 @@ def load_user_ik(spec: str, timeout: float | None = None, jail: bool | None = No
     :func:`~kr210_sim.robot.jail.jail_wanted`, which ``--no-jail`` turns off), started here so a
     bad SPEC is its one line now; a call with no answer within ``timeout`` raises
     :class:`IkTimeout` ("no answer within 2 s"), which the checks turn into an unusable answer
-    (that cycle is ``ik_failed``). One sandbox per SPEC, limit, jail and process.
+    (that cycle is ``ik_failed``). One sandbox per SPEC, limit, jail and process. A ROS-form
+    server always runs in a sandbox (a process of its own, its working folder holding a copy of
+    the files beside it, as under ``rosrun``), with no limit per call unless ``timeout`` sets
+    one, and :data:`ROS_LOAD_TIMEOUT` to reach ``rospy.spin()``.
 
     Raises:
         IkSpecError: The SPEC names nothing loadable, or its import took longer than
             :data:`LOAD_TIMEOUT`.
         JailUnavailable: A jail is wanted and none can be made here.
     """
-    if timeout is None:
+    spec = resolve_spec(spec)
+    source = spec_file(spec)
+    ros = source is not None and is_ros_form(source)
+    if timeout is None and not ros:
         return load_ik(spec)
     from kr210_sim.robot.jail import Jail, jail_wanted
 
     jailed = jail_wanted() if jail is None else jail
-    key = (spec, float(timeout), jailed)
+    key = (spec, None if timeout is None else float(timeout), jailed)
     if key not in _GUARDED:
         confinement = Jail() if jailed else Unconfined()
-        box = IkSandbox(spec, Limits(call_timeout=timeout, memory_mb=None), confinement=confinement)
+        load = ROS_LOAD_TIMEOUT if ros else LOAD_TIMEOUT
+        limits = Limits(call_timeout=timeout, memory_mb=None, load_timeout=load)
+        box = IkSandbox(spec, limits, confinement=confinement)
         try:
             box.start()
         except (IkTimeout, IkCrashed) as exc:
             box.close()
             raise IkSpecError(f"--ik {spec!r}: {exc}") from None
-        _GUARDED[key] = UserIk(spec, box)
+        _GUARDED[key] = box.user_ik()
     return _GUARDED[key]

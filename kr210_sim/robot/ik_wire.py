@@ -5,6 +5,8 @@ speak it (:mod:`kr210_sim.robot.ik_sandbox` and :mod:`kr210_sim.robot.ik_child`)
 reading side of the user's answers is on guard: the user's process may write anything to its
 end of the pipe, so :func:`receive` bounds a frame's size (:data:`MAX_FRAME`) and the time it may
 take, and tells a frame that is too big (:class:`Oversized`) from one that is not JSON (None).
+:func:`answer_of` reads an answer's message back into the answer (numbers, None, the exception
+the user's code raised, or an unusable answer that says what it was: :func:`refusal`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ import struct
 import time
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from kr210_sim.errors import one_line
 
@@ -105,3 +109,39 @@ def short(text: str, limit: int = MAX_TEXT) -> str:
     if len(head) == len(text) and len(flat) <= limit:
         return flat
     return f"{flat[:limit]} [... {len(text) - limit:,} more characters]"
+
+
+def refusal(what: str, why: str) -> Any:
+    """An object standing for an answer that is not numbers: named ``what``, and converting it
+    (``float``, ``numpy.asarray``) raises ``TypeError(why)``, which the guard reports."""
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise TypeError(why)
+
+    return type(what, (), {"__array__": refuse, "__float__": refuse})()
+
+
+def oversized(size: int) -> Any:
+    """The unusable answer that stands for a message of ``size`` bytes, over the bound."""
+    return refusal(
+        f"an answer of {size:,} bytes",
+        f"a message may hold at most {MAX_FRAME:,} bytes; six angles take about 150",
+    )
+
+
+def answer_of(message: dict[str, Any]) -> Any:
+    """The user's answer from its message (see :func:`kr210_sim.robot.ik_child.reply`)."""
+    if "raised" in message:
+        kind = type(str(message["raised"]), (Exception,), {})
+        raise kind(str(message.get("message", "")))
+    if message.get("none"):
+        return None
+    if "q" in message:
+        try:  # what the user's process sent: a list of numbers and its shape, or so it says
+            q = np.asarray(message["q"], dtype=np.float64)
+            return q.reshape(tuple(int(n) for n in message.get("shape", q.shape)))
+        except (TypeError, ValueError, OverflowError) as exc:
+            return refusal(
+                "a malformed answer", f"the answer's message does not hold numbers: {exc}"
+            )
+    return refusal(str(message.get("object", "object")), str(message.get("why", "")))

@@ -8,7 +8,11 @@ The contract (the README's "Do the exercise" section says the same)::
         return q  # six joint angles [rad] (any sequence of six numbers), or None if unreachable
 
 A SPEC names the function: ``package.module:function`` (imported) or ``path/to/file.py:function``
-(loaded from the file; its folder is on ``sys.path`` while it is imported). :func:`load_ik` turns a
+(loaded from the file; its folder is on ``sys.path`` while it is imported). The original
+exercise's form is told apart from the file (:mod:`kr210_sim.robot.ros.form`): a ROS service
+script ``IK_server.py`` runs as ROS ran it (:mod:`kr210_sim.robot.ros.server`), and a repository,
+its scripts folder or the script itself resolves to its SPEC ``.../IK_server.py:
+handle_calculate_IK`` (:func:`~kr210_sim.robot.ros.form.resolve_spec`). :func:`load_ik` turns a
 SPEC into a :class:`UserIk`; a bad SPEC is one :class:`~kr210_sim.errors.IkSpecError` line. A
 :class:`UserIk` pickles as its SPEC, so worker processes rebuild the function from the string.
 Every answer is judged before anything moves: :mod:`kr210_sim.robot.ik_guard`.
@@ -21,7 +25,7 @@ import importlib
 import importlib.util
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -31,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError, one_line
+from kr210_sim.robot.ros.form import is_ros_form, resolve_spec
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -46,10 +51,19 @@ class UserIk:
     Attributes:
         spec: The SPEC string (``module:function`` or ``file.py:function``).
         function: The callable ``solve(T, q_ref)``.
+        batch: ``batch(poses) -> answers`` for an IK that takes many poses in one call and
+            ignores ``q_ref`` (a ROS-form server: one request of many poses, as MoveIt sent
+            them), one answer (or exception) per pose; None for ours.
+        notes: What Python 2 semantics changed in the user's code since the last call (one
+            line each; a ROS-form server's :class:`~kr210_sim.robot.ros.py2.Notes`), or None.
     """
 
     spec: str
     function: Callable[..., Any] = field(repr=False, compare=False)
+    batch: Callable[[Sequence[FloatArray]], list[Any]] | None = field(
+        default=None, repr=False, compare=False
+    )
+    notes: Callable[[], list[str]] | None = field(default=None, repr=False, compare=False)
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (load_ik, (self.spec,))
@@ -61,8 +75,9 @@ class UserIk:
 
 
 def spec_file(spec: str) -> Path | None:
-    """The file a ``file.py:function`` SPEC names (None for a module SPEC)."""
-    where = spec.rpartition(":")[0]
+    """The file a ``file.py:function`` SPEC names (None for a module SPEC; a repository or
+    scripts folder is resolved first, :func:`~kr210_sim.robot.ros.form.resolve_spec`)."""
+    where = resolve_spec(spec).rpartition(":")[0]
     return Path(where) if _is_path(where) else None
 
 
@@ -91,10 +106,15 @@ def _environment_roots() -> tuple[Path, ...]:
 def spec_files(spec: str) -> SpecFiles:
     """The files a SPEC's code is read from (see :class:`SpecFiles`), found as :func:`load_ik`
     would find them in this process. A module that cannot be found gives none (loading it then
-    says why)."""
-    where = spec.rpartition(":")[0]
+    says why). A ROS-form script's are its folder and, in a catkin package, the package's
+    ``src`` folder beside it (its Python modules)."""
+    where = resolve_spec(spec).rpartition(":")[0]
     if _is_path(where):
-        return SpecFiles((Path(where).resolve().parent,), ())
+        folder = Path(where).resolve().parent
+        src = folder.parent / "src"
+        if src.is_dir() and is_ros_form(Path(where)):
+            return SpecFiles((folder, src.resolve()), ())
+        return SpecFiles((folder,), ())
     top = where.split(".")[0]
     if not top or top == __name__.split(".")[0]:
         return SpecFiles((), ())
@@ -129,7 +149,8 @@ def split_spec(spec: str) -> tuple[str, str]:
     where, sep, name = spec.rpartition(":")
     if not sep or not where or not name:
         raise IkSpecError(
-            f"--ik {spec!r}: expected package.module:function or path/to/file.py:function"
+            f"--ik {spec!r}: expected package.module:function, path/to/file.py:function, or "
+            "a ROS IK_server.py (the file, its scripts folder or its repository)"
         )
     if not name.isidentifier():
         raise IkSpecError(f"--ik {spec!r}: {name!r} is not a Python function name")
@@ -170,17 +191,27 @@ def load_ik(spec: str) -> UserIk:
     """Load the IK function a SPEC names (once per process and SPEC).
 
     Args:
-        spec: ``package.module:function`` or ``path/to/file.py:function``.
+        spec: ``package.module:function`` or ``path/to/file.py:function``; or a ROS-form
+            ``IK_server.py``, its scripts folder or its repository (resolved to the script's
+            SPEC, which the result carries).
 
     Returns:
-        The loaded function with its SPEC.
+        The loaded function with its SPEC (a ROS-form server's with its ``batch`` and
+        ``notes``).
 
     Raises:
         IkSpecError: One line saying what is wrong: no such module or file, a syntax error
             (file and line), an exception at import (its message), no such function (with the
-            functions the module does define), or a name that is not callable.
+            functions the module does define), or a name that is not callable; for a ROS-form
+            script also what cannot be read as Python 2 and a ROS package it imports that is
+            not here.
     """
+    resolved = resolve_spec(spec)
+    if resolved != spec:
+        return load_ik(resolved)  # one load per resolved SPEC, however it was named
     where, name = split_spec(spec)
+    if _is_path(where) and is_ros_form(Path(where)):
+        return _load_server(spec, Path(where), name)
     try:
         if _is_path(where):
             module = _import_file(Path(where), spec)
@@ -219,6 +250,15 @@ def load_ik(spec: str) -> UserIk:
     return UserIk(spec, fn)
 
 
+def _load_server(spec: str, script: Path, handler: str) -> UserIk:
+    """A ROS-form server, started (:class:`~kr210_sim.robot.ros.server.RosServer`)."""
+    from kr210_sim.robot.ros.server import RosServer
+
+    server = RosServer(script, spec, handler)
+    server.start()
+    return UserIk(spec, server.solve, batch=server.batch, notes=server.take_notes)
+
+
 def ik_identity(spec: str) -> dict[str, str | None]:
     """What an IK's results depend on, whatever the spelling of its SPEC: the function's name
     and the SHA-256 of the file it is defined in (None when there is no file to read).
@@ -226,7 +266,7 @@ def ik_identity(spec: str) -> dict[str, str | None]:
     ``my_ik.py:solve``, ``./my_ik.py:solve`` and ``/abs/my_ik.py:solve`` are one IK; an edited
     file is another.
     """
-    where, name = split_spec(spec)
+    where, name = split_spec(resolve_spec(spec))
     source: str | None = None
     if _is_path(where):
         source = where

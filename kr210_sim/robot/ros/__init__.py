@@ -1,0 +1,17 @@
+"""The original exercise's form: a ROS service ``IK_server.py`` (Python 2, sympy, tf), run as it
+was written.
+
+* :mod:`~kr210_sim.robot.ros.form` tells the form apart and finds the server in a repository;
+* :mod:`~kr210_sim.robot.ros.py2` reads Python 2 source as Python 2 did and compiles it;
+* :mod:`~kr210_sim.robot.ros.server` runs the script as ``__main__`` with the ROS modules it
+  imports (``shims/``: rospy, tf, tf2_ros, kuka_arm.srv and the message packages, backed by
+  :mod:`~kr210_sim.robot.ros.node`, :mod:`~kr210_sim.robot.ros.messages` and
+  :mod:`~kr210_sim.robot.ros.tf_transformations`) and serves its handler requests of many
+  poses, as MoveIt sent them.
+"""
+
+from __future__ import annotations
+
+from kr210_sim.robot.ros.form import HANDLER, find_server, is_ros_form, resolve_spec
+
+__all__ = ["HANDLER", "find_server", "is_ros_form", "resolve_spec"]

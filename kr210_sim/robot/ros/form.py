@@ -1,0 +1,153 @@
+"""Tell the original exercise's form from ours, and find the server in a submission.
+
+A ROS-form submission is a ROS service script, ``kuka_arm/scripts/IK_server.py`` in a student's
+copy of the exercise's repository: it imports ``rospy`` (or the exercise's ``kuka_arm.srv``) and
+answers ``handle_calculate_IK(req)``. Ours is a module with ``solve(T, q_ref)``. The form is told
+from the file's text, without running it and without a flag (:func:`is_ros_form`).
+
+:func:`resolve_spec` turns what a user names with ``--ik`` or ``grade`` into a SPEC: a
+repository, its ``scripts`` folder or the script itself becomes ``path/IK_server.py:
+handle_calculate_IK``, which pickles, prints and replays like any SPEC; a ``.py`` file of our
+form named without ``:function`` becomes ``path/file.py:solve``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+from kr210_sim.errors import IkSpecError
+
+#: The handler every IK server defines (the SPEC's function; the fallback when the script
+#: registers none).
+HANDLER = "handle_calculate_IK"
+#: The script's name in the exercise.
+SERVER = "IK_server.py"
+#: Where a repository keeps it, first choice first.
+PLACES = ("kuka_arm/scripts", "scripts", ".")
+#: The function a ``.py`` file of our form is named by.
+OUR_FUNCTION = "solve"
+#: Most of a file read to tell its form [bytes].
+READ = 1 << 21
+#: How deep below a folder a server is looked for.
+DEPTH = 4
+#: Most files, and bytes, of a script's folder copied into its working folder.
+SEED_FILES = 200
+SEED_BYTES = 128 << 20
+
+_ROS_IMPORT = re.compile(
+    rb"^[ \t]*(?:import[ \t]+(?:rospy|kuka_arm)\b"
+    rb"|from[ \t]+(?:rospy|kuka_arm)[\w.]*[ \t]+import\b)",
+    re.MULTILINE,
+)
+_SERVICE = re.compile(rb"rospy\.Service\s*\(|\bdef[ \t]+handle_calculate_IK\b")
+
+
+def is_ros_form(path: Path) -> bool:
+    """Whether the Python file ``path`` is a ROS-form server: it imports ``rospy`` or
+    ``kuka_arm`` and registers a service or defines ``handle_calculate_IK`` (False for a file
+    that cannot be read)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(READ)
+    except OSError:
+        return False
+    return bool(_ROS_IMPORT.search(head) and _SERVICE.search(head))
+
+
+def _visible(path: Path, root: Path) -> bool:
+    return not any(p.startswith((".", "_")) for p in path.relative_to(root).parts[:-1])
+
+
+def find_server(folder: Path) -> Path | None:
+    """The ROS-form server in ``folder``: ``IK_server.py`` in ``kuka_arm/scripts``,
+    ``scripts`` or the folder itself; else the one ``IK_server.py`` below it (at most
+    :data:`DEPTH` folders down, a ``kuka_arm/scripts`` one first); else the one ROS-form
+    script in a ``scripts`` folder. None when there is none (or no single one)."""
+    for place in PLACES:
+        path = folder / place / SERVER
+        if path.is_file():
+            return path
+    found = sorted(
+        p
+        for depth in range(1, DEPTH + 1)
+        for p in folder.glob("/".join(["*"] * depth) + f"/{SERVER}")
+        if p.is_file() and _visible(p, folder)
+    )
+    preferred = [p for p in found if p.parent.match("kuka_arm/scripts")]
+    for group in (preferred, found):
+        if len(group) == 1:
+            return group[0]
+    scripts = [folder / "kuka_arm" / "scripts", folder / "scripts"]
+    servers = [p for s in scripts if s.is_dir() for p in sorted(s.glob("*.py")) if is_ros_form(p)]
+    return servers[0] if len(servers) == 1 else None
+
+
+def resolve_spec(text: str) -> str:
+    """The SPEC for ``text``: a repository, ``scripts`` folder or ROS-form script becomes
+    ``path/IK_server.py:handle_calculate_IK``, a ``.py`` file of our form without
+    ``:function`` becomes ``path/file.py:solve``; anything else is returned as it is.
+
+    Raises:
+        IkSpecError: A folder with no ROS-form server in it.
+    """
+    where, sep, name = text.rpartition(":")
+    if sep and where and name.isidentifier():
+        return text  # a SPEC already
+    path = Path(text)
+    if _is(path, Path.is_dir):
+        server = find_server(path)
+        if server is None:
+            raise IkSpecError(
+                f"--ik {text!r}: no {SERVER} in this folder (looked in kuka_arm/scripts, scripts, "
+                f"the folder itself and {DEPTH} folders down): name the script itself"
+            )
+        return f"{server}:{HANDLER}"
+    if path.suffix == ".py" and _is(path, Path.is_file):
+        return f"{path}:{HANDLER if is_ros_form(path) else OUR_FUNCTION}"
+    return text
+
+
+def _is(path: Path, test: Callable[[Path], bool]) -> bool:
+    """``test(path)``, False for a path the system refuses (a name too long, say)."""
+    try:
+        return test(path)
+    except (OSError, ValueError):
+        return False
+
+
+def seed_scratch(script: Path, scratch: Path) -> int:
+    """Copy the files beside ``script`` (its folder, subfolders too, without ``__pycache__``
+    and compiled files) into ``scratch``, its working folder, so that it reads them by relative
+    paths as it did under ``rosrun``; a file already there (one the script wrote) is kept. At
+    most :data:`SEED_FILES` files and :data:`SEED_BYTES` bytes, the smallest first.
+
+    Returns:
+        The files copied.
+    """
+    folder = script.resolve().parent
+    found: list[tuple[int, Path]] = []
+    for here, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__" and not d.startswith("."))
+        for name in files:
+            path = Path(here) / name
+            if path.suffix in (".pyc", ".pyo") or path.is_symlink() or not path.is_file():
+                continue
+            found.append((path.stat().st_size, path))
+    copied, total = 0, 0
+    for size, path in sorted(found):
+        if copied >= SEED_FILES or total + size > SEED_BYTES:
+            break
+        target = scratch / path.relative_to(folder)
+        if target.exists():
+            continue
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            shutil.copyfile(path, target)
+        except OSError:
+            continue
+        copied, total = copied + 1, total + size
+    return copied

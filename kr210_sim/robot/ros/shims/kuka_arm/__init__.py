@@ -1,0 +1,1 @@
+"""The exercise's ROS package ``kuka_arm``: its service, in ``kuka_arm.srv``."""

@@ -1,0 +1,1 @@
+"""The ROS package sensor_msgs: its messages, in ``sensor_msgs.msg``."""

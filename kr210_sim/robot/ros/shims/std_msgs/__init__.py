@@ -1,0 +1,1 @@
+"""The ROS package std_msgs: its messages, in ``std_msgs.msg``."""

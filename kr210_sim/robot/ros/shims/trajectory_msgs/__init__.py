@@ -1,0 +1,1 @@
+"""The ROS package trajectory_msgs: its messages, in ``trajectory_msgs.msg``."""

@@ -1,0 +1,1 @@
+"""The ROS package visualization_msgs: its messages, in ``visualization_msgs.msg``."""
