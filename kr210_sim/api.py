@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import signal
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -507,6 +508,8 @@ def ik_check(
     Raises:
         IkSpecError: ``ik`` names nothing loadable.
         ConfigError: A bad argument or an unwritable output.
+        RunInterrupted: Ctrl-C or a termination signal stopped the check; the report of the
+            cases tried (``interrupted``: the signal's name) was written and is its ``report``.
     """
     from kr210_sim.eval.ikcheck import run_check
 
@@ -518,7 +521,10 @@ def ik_check(
     _whole(seed, "seed", 0)
     report_path = _path(report, "report")
     result = run_check(user_ik, cases, seed, report_path, _path(plots, "plots"), progress)
-    return IkCheckReport(result.report, report_path, result.text, result.plot_paths)
+    out = IkCheckReport(result.report, report_path, result.text, result.plot_paths)
+    if result.interrupted is not None:
+        raise RunInterrupted(getattr(result.interrupted, "signum", signal.SIGINT), out)
+    return out
 
 
 def grade(

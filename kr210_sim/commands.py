@@ -359,15 +359,22 @@ def check(args: argparse.Namespace) -> int:
 
 def ik_check(args: argparse.Namespace) -> int:
     """``ik-check --ik SPEC``: grade an IK function."""
-    from kr210_sim.api import ik_check
+    from kr210_sim.api import IkCheckReport, RunInterrupted, ik_check
 
     ik = _load_ik(args)  # a bad SPEC is one line here, before anything runs
-    result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
+    interrupted: RunInterrupted | None = None
+    try:
+        result = ik_check(ik, args.cases, args.seed, args.report, args.plots)
+    except RunInterrupted as exc:
+        interrupted, result = exc, exc.report  # type: ignore[assignment]
+    assert isinstance(result, IkCheckReport)
     out = sys.stdout
     out.write(result.text + "\n")
     out.write(f"  report: {args.report}\n")
     if result.plot_paths:
         out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+    if interrupted is not None:
+        return exit_code(interrupted)
     return 0 if result.passed else 1
 
 

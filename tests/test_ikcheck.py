@@ -266,3 +266,52 @@ def test_the_ik_debug_cases_and_what_the_script_printed(tmp_path: Path) -> None:
         assert r["wrist_centre_error_m"]["overall"] == pytest.approx(0.054, abs=1e-9)
         assert r["end_effector_error_m"]["overall"] == pytest.approx(0.054, abs=1e-9)
         assert r["problem"].startswith("returned q")
+
+
+def test_a_signal_stops_the_check_and_keeps_the_cases_tried(tmp_path: Path) -> None:
+    """Ctrl-C twice, 2 ms apart, in the middle of a check: the report of the cases tried is
+    written whole, marked interrupted, and the exit code is Ctrl-C's."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    slow = tmp_path / "slow.py"
+    marker = tmp_path / "ten_calls"
+    slow.write_text(
+        "import time, pathlib\nfrom kr210_sim.robot.kinematics import nearest\n"
+        f"N = [0]\nM = pathlib.Path({str(marker)!r})\n"
+        "def solve(T, q):\n"
+        "    N[0] += 1\n"
+        "    if N[0] == 10:\n"
+        "        M.write_text('')\n"
+        "    time.sleep(0.01)\n"
+        "    return nearest(T, q)\n"
+    )
+    report = tmp_path / "check.json"
+    command = [sys.executable, "-m", "kr210_sim", "ik-check", "--ik", f"{slow}:solve"]
+    proc = subprocess.Popen(
+        [*command, "--cases", "2000", "--report", str(report)],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    end = time.monotonic() + 60
+    while not marker.exists() and time.monotonic() < end and proc.poll() is None:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.002)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    data = json.loads(report.read_text())
+    tried = data["summary"]["cases"]
+    assert data["interrupted"] == "SIGINT" and data["cases_planned"] == 68 + 2000
+    assert 9 <= tried == len(data["cases"]) < 2068  # the tenth call's answer may be cut
+    assert data["summary"]["passed"] == tried  # nearest answers every case tried
+    assert f"  interrupted (SIGINT) after {tried} of 2068 cases" in out
+    assert f"INTERRUPTED: {tried}/{tried} cases" in out
+    assert sorted(os.listdir(tmp_path)) == ["check.json", "slow.py", "ten_calls"]

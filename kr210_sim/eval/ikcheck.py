@@ -51,6 +51,7 @@ from kr210_sim.robot.ik_guard import (
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.quaternions import pose_matrix
 from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.util.interrupts import signal_name, winding_up
 from kr210_sim.util.progress import ProgressLine, bar
 
 if TYPE_CHECKING:
@@ -272,15 +273,28 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def check(
-    kin: Kinematics, ik: UserIk, cases: list[Case], progress: TextIO | None = None
+    kin: Kinematics,
+    ik: UserIk,
+    cases: list[Case],
+    progress: TextIO | None = None,
+    records: list[dict[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
     """Call ``ik`` on every case and judge each answer with ``kin``; one record per case (an IK
     that takes batches, a ROS-form server, is asked :data:`~kr210_sim.robot.ik_guard.BATCH`
-    cases per request)."""
+    cases per request).
+
+    Args:
+        kin: The kinematics that judge the answers.
+        ik: The IK under check.
+        cases: The poses, tried in this order.
+        progress: Stream for the progress line (None: stderr).
+        records: A list the records are appended to as they come (so the caller keeps those of
+            the cases done when a signal stops the check); None: a new one.
+    """
     line = ProgressLine(progress or sys.stderr)
     line.last = line.start  # the first line only after an interval: quick checks stay quiet
     shown = False
-    records = []
+    records = [] if records is None else records
     step = BATCH if ik.batch is not None else 1
     for first in range(0, len(cases), step):
         chunk = cases[first : first + step]
@@ -384,9 +398,22 @@ def build_report(
     records: list[dict[str, Any]],
     wall_time: float,
     kin: Kinematics | None = None,
+    planned: int | None = None,
+    interrupted: BaseException | None = None,
 ) -> dict[str, Any]:
-    """The JSON-ready report of a check (``kin``: the kinematics that judged it, for the
-    ``ik_debug`` rows; None: the committed robot's)."""
+    """The JSON-ready report of a check.
+
+    Args:
+        spec: The IK's SPEC.
+        n_random: Random cases asked for.
+        seed: Their seed.
+        records: One per case tried.
+        wall_time: Wall time of the check [s].
+        kin: The kinematics that judged it, for the ``ik_debug`` rows (None: the committed
+            robot's).
+        planned: Cases the check was to try (None: as many as ``records``).
+        interrupted: The interrupt that stopped it after ``len(records)`` cases, or None.
+    """
     from kr210_sim.util.versions import versions
 
     return {
@@ -400,6 +427,8 @@ def build_report(
             "branch_change_threshold_rad": MAX_LINE_STEP,
         },
         "summary": summarise(records),
+        "cases_planned": len(records) if planned is None else planned,
+        "interrupted": None if interrupted is None else signal_name(interrupted),
         "ik_debug": ik_debug_rows(kin or Kinematics(load_robot()), records),
         "cases": records,
         "wall_time_s": wall_time,
@@ -442,6 +471,13 @@ def table(report: dict[str, Any]) -> str:
             "straight-line samples"
         )
     verdict = "PASS" if s["passed"] == s["cases"] else "FAIL"
+    if report.get("interrupted"):
+        planned = report["cases_planned"]
+        rows.append(
+            f"  interrupted ({report['interrupted']}) after {s['cases']} of {planned} cases: "
+            "the figures are those of the cases tried"
+        )
+        verdict = "INTERRUPTED"
     rows.append(
         f"{verdict}: {s['passed']}/{s['cases']} cases within {1000 * POSITION_TOL:g} mm and "
         f"{1000 * ORIENTATION_TOL:g} mrad, inside the joint limits"
@@ -540,12 +576,13 @@ class CheckResult:
     report: dict[str, Any]
     text: str
     plot_paths: tuple[Path, ...]
+    interrupted: KeyboardInterrupt | None = None
 
     @property
     def passed(self) -> bool:
-        """Every case passed."""
+        """Every case planned was tried and passed."""
         s = self.report["summary"]
-        return bool(s["passed"] == s["cases"])
+        return self.interrupted is None and bool(s["passed"] == s["cases"])
 
 
 def run_check(
@@ -560,7 +597,9 @@ def run_check(
     """Check ``ik`` on the fixed cases and ``n_random`` random ones; write report and plots.
 
     The cases are poses of ``robot`` (default: the committed URDF), and its kinematics judge
-    the answers.
+    the answers. Ctrl-C, SIGTERM or SIGHUP stops the check: the report (and the plots) of the
+    cases tried so far are written whole, marked ``interrupted``, and the result carries the
+    interrupt.
 
     Raises:
         ConfigError: When the report or plot paths cannot be written (checked first).
@@ -579,10 +618,18 @@ def run_check(
     check_distinct({"--report": report_path, **outputs}, {"--ik": ik.source})
     wall0 = time.perf_counter()
     kin = Kinematics(robot if robot is not None else load_robot())
-    cases = fixed_cases(kin) + random_cases(kin, n_random, seed)
-    records = check(kin, ik, cases, progress)
-    report = build_report(ik.spec, n_random, seed, records, time.perf_counter() - wall0, kin)
-    if report_path is not None:
-        write_json_atomic(report_path, report)
-    plots = tuple(write_plots(plots_dir, records)) if plots_dir is not None else ()
-    return CheckResult(report, table(report), plots)
+    records: list[dict[str, Any]] = []
+    interrupted: KeyboardInterrupt | None = None
+    try:
+        cases = fixed_cases(kin) + random_cases(kin, n_random, seed)
+        check(kin, ik, cases, progress, records)
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (kr210_sim.util.interrupts)
+        interrupted = exc
+    with winding_up(interrupted):  # further signals wait until the report is written
+        planned = len(fixed_cases(kin)) + n_random if interrupted is not None else None
+        wall = time.perf_counter() - wall0
+        report = build_report(ik.spec, n_random, seed, records, wall, kin, planned, interrupted)
+        if report_path is not None:
+            write_json_atomic(report_path, report)
+        plots = tuple(write_plots(plots_dir, records)) if plots_dir is not None else ()
+    return CheckResult(report, table(report), plots, interrupted)
