@@ -231,7 +231,8 @@ def test_the_ik_debug_cases_and_what_the_script_printed(tmp_path: Path) -> None:
     """The three cases of the exercise's IK_debug.py: their wrist centres are the ones the script
     listed, Gazebo's angles are within 0.01 rad of our solution, and the report's rows give the
     script's figures, for the worked example and for the classic 0.054 m mistake."""
-    from kr210_sim.eval.ikcheck import IK_DEBUG_CASES, ik_debug_cases
+    from kr210_sim.eval.ik_debug import IK_DEBUG_CASES
+    from kr210_sim.eval.ikcheck import ik_debug_cases
 
     cases = ik_debug_cases(KIN)
     assert [c.name for c in cases] == [f"IK_debug case {i}" for i in (1, 2, 3)]
