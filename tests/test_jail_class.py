@@ -161,6 +161,12 @@ def test_a_hostile_class_is_graded_in_one_call_and_every_attack_is_stopped(
     (tmp_path / "answer_key.txt").write_text(KEY_SECRET)
     src = EXAMPLE.read_text()
     (klass / "no_offset.py").write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
+    # Entries that link out of the class folder (an unpacked archive's): not graded, or its
+    # jail would show it what they lead to.
+    (tmp_path / "home").mkdir()
+    (tmp_path / "home" / "ik.py").write_text(f"# {KEY_SECRET}\n" + src)
+    (klass / "linker").symlink_to(tmp_path / "home")
+    (klass / "linked.py").symlink_to(tmp_path / "home" / "ik.py")
     marker = f"kr210-hostile-daemon-{os.getpid()}-{time.monotonic_ns()}"
     pwned = paths.PACKAGE_DIR / "pwned_by_writer.py"
     with socket.socket() as listener:
@@ -198,7 +204,13 @@ def test_a_hostile_class_is_graded_in_one_call_and_every_attack_is_stopped(
         "no_offset": "fail",  # the ordinary class keeps its verdicts
         **{n: "pass" for n in members if n != "pipe"},
         "pipe": "timeout",  # a frame that never comes counts against its sender
+        "linker": "error",
+        "linked": "error",
     }
+    assert by_name["linker"]["detail"] == (
+        f"{klass / 'linker'} is a symbolic link out of its class folder, to {tmp_path / 'home'}: "
+        "not graded (copy the submission into the class folder)"
+    )
     assert by_name["no_offset"]["diagnosis"][0]["code"] == "offset_0054"
     report = (out / "grade.json").read_text()
     assert SIBLING_SECRET not in report and KEY_SECRET not in report

@@ -101,10 +101,27 @@ def _folder_student(folder: Path) -> Student:
     return Student(name, "", f"no {STUDENT_MODULE} in {_shown(folder)} ({found})")
 
 
+def _links_out(path: Path) -> str:
+    """Why a class folder's entry that is a symbolic link out of that folder is no submission
+    ("" when it is none): its jail would show it what the link leads to (``alice -> /home/you``
+    from an unpacked archive)."""
+    if not path.is_symlink() or not path.exists():
+        return ""
+    target = path.resolve()
+    if target.is_relative_to(path.parent.resolve()):
+        return ""
+    return (
+        f"{_shown(path)} is a symbolic link out of its class folder, to {_shown(target)}: "
+        "not graded (copy the submission into the class folder)"
+    )
+
+
 def _entry_student(path: Path) -> Student | None:
     """The student a class folder's entry is (None: not a submission)."""
     if path.name.startswith((".", "_")):
         return None
+    if (why := _links_out(path)) and (path.is_dir() or path.suffix == ".py"):
+        return Student(_shown(path.stem if path.suffix == ".py" else path.name), "", why)
     if path.is_dir():
         return _folder_student(path)
     if why := _dangling(path):
