@@ -463,3 +463,22 @@ def write_class(folder: Path, names: tuple[str, ...] | None = None) -> Path:
             else:
                 path.write_text(text)
     return folder
+
+
+def _stateless(source: str) -> str:
+    """``source`` with the answer nearest a fixed reference (zeros), not the last answer: the
+    same answer for the same pose whatever came before."""
+    return source.replace(
+        "    PREV_JOINTS = list(best[1])\n    return PREV_JOINTS", "    return list(best[1])"
+    )
+
+
+def cross_check() -> tuple[str, str]:
+    """One IK written twice: as an original-form ROS server (Python 2) and in our contract
+    (``solve(T, q_ref)``, Python 3), for the same answers and verdicts."""
+    ros = _stateless(numpy_server())
+    ik = _stateless(NUMPY_IK.substitute(a3="-0.054", dg="0.303"))
+    ours = ik.replace("xrange", "range").replace("\t", " " * 8) + (
+        "\n\ndef solve(T, q_ref):\n    return solve_pose(T[:3, 3], T[:3, :3])\n"
+    )
+    return ros, ours

@@ -146,3 +146,94 @@ def test_unusable_answers_are_named_with_what_to_do(cases: list[Case]) -> None:
 def _texts(cases: list[Case], fn: Callable[..., Any]) -> list[str]:
     records = check(KIN, UserIk("t:s", fn), cases, io.StringIO())
     return [f.text for f in diagnose(KIN, records, [c.T for c in cases])]
+
+
+def _rpy_rotation(T: np.ndarray, order: str) -> np.ndarray:
+    """T's rotation rebuilt from tf's roll, pitch and yaw with the elementary rotations
+    multiplied in ``order`` (left to right), as a student wrote it."""
+    from kr210_sim.robot.ros import tf_transformations as tft
+
+    angles = dict(zip("xyz", tft.euler_from_matrix(T), strict=True))
+    R = np.eye(3)
+    for axis in order:
+        R = (
+            R
+            @ tft.rotation_matrix(
+                angles[axis], {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[axis]
+            )[:3, :3]
+        )
+    return R
+
+
+def test_an_euler_order_mistake_is_named_with_the_order(cases: list[Case]) -> None:
+    """Positions exact, orientations off where the order matters: Rx Ry Rz for Rz Ry Rx."""
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        wrong = T.copy()
+        wrong[:3, :3] = _rpy_rotation(T, "xyz")
+        return kinematics.nearest(wrong, q)
+
+    records = check(KIN, UserIk("test:solve", solve), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
+    assert found[0].code == "euler_order"
+    assert "positions exact, orientations off by up to" in found[0].text
+    assert "(yours is Rx(roll) Ry(pitch) Rz(yaw); tf's euler_from_quaternion" in found[0].text
+
+
+def test_a_rotation_overwritten_after_the_first_pose_is_named(cases: list[Case]) -> None:
+    """Every answer has the first pose's orientation, as ``R = R.subs(...)`` in the loop."""
+    first: list[np.ndarray] = []
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        first.append(T[:3, :3].copy()) if not first else None
+        stale = T.copy()
+        stale[:3, :3] = first[0]
+        return kinematics.nearest(stale, q)
+
+    records = check(KIN, UserIk("test:solve", solve), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
+    assert found[0].code == "stale_rotation"
+    assert (
+        "with the orientation of an earlier pose (e.g. IK_debug case 2 has IK_debug case 1's)"
+        in found[0].text
+    )
+
+
+def test_the_servers_mistakes_and_python_2s_notes_are_named(cases: list[Case]) -> None:
+    """A NameError, complex numbers, unevaluated sympy expressions (the answers a ROS-form
+    server gives, robot/ros/answers.py) and the notes of its process."""
+    import sympy
+
+    from kr210_sim.robot.ros.answers import angles
+    from kr210_sim.robot.ros.messages import JointTrajectoryPoint
+
+    some = cases[:6]
+
+    def answer(i: int) -> Any:
+        if i < 2:
+            return angles(JointTrajectoryPoint(positions=[0, complex(1, 0.2), 0, 0, 0, 0]))
+        if i < 4:
+            return angles(JointTrajectoryPoint(positions=[sympy.Symbol("q1")] + [0] * 5))
+        raise NameError("name 'theta4' is not defined (IK_server.py line 88)")
+
+    from kr210_sim.eval.ikcheck import case_record
+    from kr210_sim.robot.ik_guard import assess
+
+    records = []
+    for i, c in enumerate(some):
+        try:
+            raw = answer(i)
+        except NameError as exc:
+            raw = exc
+        records.append(case_record(KIN, c, assess(KIN, c.T, c.q_ref, raw)))
+    note = "IK_server.py line 16: `303/1000` divides integers (303 / 1000 = 0 under Python 2)"
+    found = {f.code: f.text for f in diagnose(KIN, records, [c.T for c in some], notes=[note])}
+    assert found["name_error"].startswith(
+        "NameError: name 'theta4' is not defined (IK_server.py line 88) on 2 of 6 poses"
+    )
+    assert found["complex"].startswith(
+        "2 of 6 answers hold a complex number (e.g. IK_debug case 1: joint_2 = 1+0.2j)"
+    )
+    assert "(e.g. IK_debug case 3: joint_1 = q1 has free symbols q1)" in found["unevaluated"]
+    assert found["python2"] == f"under Python 2, as under ROS, the code computed otherwise: {note}"
+    assert "unusable" not in found  # named above, not as "not numbers"

@@ -138,3 +138,33 @@ def test_odd_file_names_become_printable_distinct_names(tmp_path: Path) -> None:
         find_students(str(tmp_path))  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="no submission"):
         find_students([])
+
+
+def test_repositories_of_the_original_exercise_are_students(tmp_path: Path) -> None:
+    """A class folder of repositories: one student per repository, graded by its server's
+    handle_calculate_IK; one repository named alone is one student; a .py file that is a ROS
+    server is graded by its handler."""
+    server = "import rospy\nfrom kuka_arm.srv import *\ndef handle_calculate_IK(req):\n    pass\n"
+    for name in ("ann", "ben"):
+        path = tmp_path / "class" / name / "kuka_arm" / "scripts" / "IK_server.py"
+        path.parent.mkdir(parents=True)
+        path.write_text(server)
+    (tmp_path / "class" / "cid.py").write_text(server)
+    (tmp_path / "class" / "dee.py").write_text("def solve(T, q):\n    return None\n")
+    students = find_students([str(tmp_path / "class")])
+    assert [(s.name, s.spec, s.root) for s in students] == [
+        (
+            "ann",
+            f"{tmp_path}/class/ann/kuka_arm/scripts/IK_server.py:handle_calculate_IK",
+            f"{tmp_path}/class/ann",
+        ),
+        (
+            "ben",
+            f"{tmp_path}/class/ben/kuka_arm/scripts/IK_server.py:handle_calculate_IK",
+            f"{tmp_path}/class/ben",
+        ),
+        ("cid", f"{tmp_path}/class/cid.py:handle_calculate_IK", f"{tmp_path}/class/cid.py"),
+        ("dee", f"{tmp_path}/class/dee.py:solve", f"{tmp_path}/class/dee.py"),
+    ]
+    (alone,) = find_students([str(tmp_path / "class" / "ann")])
+    assert alone.name == "ann" and alone.spec == students[0].spec and alone.root == students[0].root

@@ -16,6 +16,21 @@ Each finding is a short code and a sentence that says what the figures show and 
   not numbers at all (a generator, a dict), or the wrong shape; one finding per kind.
 * ``raised`` / ``none``: the function raised, or returned None for poses that can be reached.
 
+The mistakes of the original exercise's servers (:mod:`kr210_sim.robot.ros`):
+
+* ``stale_rotation``: answers that reach their pose's position with an earlier pose's
+  orientation: a rotation matrix overwritten with one pose's numbers (``R = R.subs(...)`` in
+  the loop) and reused for the next.
+* ``euler_order``: positions exact, orientations off by a rotation that changes from pose to
+  pose: the rotation built from roll, pitch and yaw is not the pose's (the order named when one
+  of the six orders of the elementary rotations explains the answers).
+* ``name_error``: a ``NameError`` (or ``UnboundLocalError``) on the poses, with its line.
+* ``complex`` / ``unevaluated``: answers holding complex numbers (``acos`` of a value past 1) or
+  sympy expressions with free symbols.
+* ``python2``: where Python 2 semantics changed what the code computed, as they did under ROS
+  (``1/2 == 0``, a list comprehension's variable overwriting another value), from the notes the
+  server's process sent (:class:`~kr210_sim.robot.ros.py2.Notes`).
+
 The figures come from :mod:`kr210_sim.eval.ikcheck` records (and, for ``gripper_frame``, the
 cases' poses, whose rotations the records do not keep).
 """
@@ -169,6 +184,10 @@ _UNUSABLE = (
 )
 
 
+#: Unusable answers a finding of their own names (``complex``, ``unevaluated``).
+_NAMED_ELSEWHERE = ("a complex number", "an unevaluated sympy expression")
+
+
 def unusable_answers(records: Sequence[dict[str, Any]]) -> list[Finding]:
     """``unusable``: answers that are no six finite angles, one finding per kind (see the
     module doc), the most frequent first."""
@@ -177,7 +196,10 @@ def unusable_answers(records: Sequence[dict[str, Any]]) -> list[Finding]:
         bad = [
             r
             for r in records
-            if r["q"] is None and not r.get("error") and phrase in str(r.get("problem") or "")
+            if r["q"] is None
+            and not r.get("error")
+            and phrase in str(r.get("problem") or "")
+            and not any(k in str(r.get("problem")) for k in _NAMED_ELSEWHERE)
         ]
         if bad:
             text = (
@@ -189,6 +211,168 @@ def unusable_answers(records: Sequence[dict[str, Any]]) -> list[Finding]:
     return [f for _, f in found]
 
 
+def _rpy(R: FloatArray) -> tuple[float, float, float]:
+    """Roll, pitch and yaw of ``R`` as tf's ``euler_from_matrix`` gives them (static x, y, z:
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)``)."""
+    cy = math.hypot(R[0, 0], R[1, 0])
+    if cy > 1e-12:
+        return math.atan2(R[2, 1], R[2, 2]), math.atan2(-R[2, 0], cy), math.atan2(R[1, 0], R[0, 0])
+    return math.atan2(-R[1, 2], R[1, 1]), math.atan2(-R[2, 0], cy), 0.0
+
+
+def _elementary(axis: str, a: float) -> FloatArray:
+    c, s = math.cos(a), math.sin(a)
+    if axis == "x":
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+#: The six orders of the elementary rotations, as a student writes them (left to right).
+_ORDERS = ("zyx", "xyz", "xzy", "yxz", "yzx", "zxy")
+_NAMES = {"x": "Rx(roll)", "y": "Ry(pitch)", "z": "Rz(yaw)"}
+#: How close an answer's rotation must be to another to count as it [Frobenius norm].
+_SAME = 1e-6
+#: Fewest answers a rotation mistake is named from.
+FEW = 3
+
+
+def _exact_position(r: dict[str, Any]) -> bool:
+    return r["q"] is not None and r["position_error_m"] <= POSITION_TOL
+
+
+def _wrong_orientation(records: Sequence[dict[str, Any]]) -> list[int]:
+    """Indices of the answers with their position right and their orientation wrong."""
+    return [
+        i
+        for i, r in enumerate(records)
+        if _exact_position(r) and r["orientation_error_rad"] > ORIENTATION_TOL
+    ]
+
+
+def stale_rotation(
+    kin: Kinematics, records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
+) -> Finding | None:
+    """``stale_rotation``: most answers with their position right and their orientation wrong
+    (at least :data:`FEW`) have an earlier pose's orientation."""
+    wrong = _wrong_orientation(records)
+    answered = [r for r in records if r["q"] is not None]
+    if len(wrong) < FEW:
+        return None
+    rotations = np.array([np.asarray(T)[:3, :3] for T in poses])
+    stale = []
+    for i in wrong:
+        R = kin.forward(np.asarray(records[i]["q"], dtype=np.float64))[:3, :3]
+        gaps = np.linalg.norm((rotations[:i] - R).reshape(i, 9), axis=1)
+        if i and float(gaps.min()) < _SAME:
+            stale.append((i, int(np.argmin(gaps))))
+    if len(stale) < MAJORITY * len(wrong):
+        return None
+    i, j = stale[0]
+    return Finding(
+        "stale_rotation",
+        f"{len(stale)} of {len(answered)} answers reach their pose's position with the "
+        f"orientation of an earlier pose (e.g. {records[i]['name']} has {records[j]['name']}'s): "
+        "a rotation matrix is overwritten with one pose's numbers and reused for the next "
+        "(R = R.subs(...) inside the loop over the poses); substitute into a new name for each "
+        "pose",
+    )
+
+
+def euler_order(
+    kin: Kinematics, records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
+) -> Finding | None:
+    """``euler_order``: positions exact, orientations off by a varying rotation, on most answers
+    or on at least :data:`FEW` that one order of the elementary rotations explains (it is named;
+    the poses it gets right are those where the order makes no difference)."""
+    wrong = _wrong_orientation(records)
+    answered = [r for r in records if r["q"] is not None]
+    if len(wrong) < FEW:
+        return None
+    worst = max(records[i]["orientation_error_rad"] for i in wrong)
+    votes = dict.fromkeys(_ORDERS[1:], 0)
+    for i in wrong:
+        R = kin.forward(np.asarray(records[i]["q"], dtype=np.float64))[:3, :3]
+        angles = dict(zip("xyz", _rpy(np.asarray(poses[i])[:3, :3]), strict=True))
+        for order in votes:
+            M = np.eye(3)
+            for axis in order:
+                M = M @ _elementary(axis, angles[axis])
+            if float(np.linalg.norm(M - R)) < _SAME:
+                votes[order] += 1
+    order, n = max(votes.items(), key=lambda kv: kv[1])
+    text = (
+        f"positions exact, orientations off by up to {math.degrees(worst):.0f} deg on "
+        f"{len(wrong)} of {len(answered)} answers: the rotation built from roll, pitch and yaw "
+        "is not the pose's"
+    )
+    named = n >= MAJORITY * len(wrong)
+    if not named and len(wrong) < MAJORITY * len(answered):
+        return None
+    if named:
+        yours = " ".join(_NAMES[a] for a in order)
+        text += (
+            f" (yours is {yours}; tf's euler_from_quaternion gives the angles about the fixed "
+            "x, y and z axes, so R = Rz(yaw) Ry(pitch) Rx(roll))"
+        )
+    else:
+        text += " (check the order of the elementary rotations: R = Rz(yaw) Ry(pitch) Rx(roll))"
+    return Finding("euler_order", text)
+
+
+def server_mistakes(records: Sequence[dict[str, Any]], notes: Sequence[str]) -> list[Finding]:
+    """``name_error``, ``complex``, ``unevaluated`` and ``python2`` (see the module doc)."""
+    found = []
+    n = len(records)
+    names = [r for r in records if str(r.get("error") or "").startswith(("NameError", "Unbound"))]
+    if names:
+        found.append(
+            Finding(
+                "name_error",
+                f"{names[0]['error']} on {len(names)} of {n} poses (e.g. {names[0]['name']}): a "
+                "name used before it is assigned (a line commented out, a misspelling, or a "
+                "name assigned only on another branch)",
+            )
+        )
+    for code, phrase, fix in (
+        (
+            "complex",
+            "a complex number",
+            "acos or asin of a value past +-1 (a triangle that cannot close: check the wrist "
+            "centre and the side lengths; at full stretch, clip the argument to [-1, 1])",
+        ),
+        (
+            "unevaluated",
+            "an unevaluated sympy expression",
+            "a symbol left in the expression: substitute every joint angle (subs or "
+            "evalf(subs=...)) before the answer is returned",
+        ),
+    ):
+        bad = [r for r in records if phrase in str(r.get("problem") or "")]
+        if bad:
+            why = str(bad[0]["problem"]).partition("(TypeError: ")[2].rstrip(")")
+            what, sep, symbols = why.partition(" has free symbols ")
+            what = what.split(":")[0] if not sep else what
+            what = what if len(what) <= 80 else what[:77] + "..."
+            why = what + (sep + symbols.split(":")[0] if sep else "")
+            found.append(
+                Finding(
+                    code,
+                    f"{len(bad)} of {n} answers hold {phrase} (e.g. {bad[0]['name']}: "
+                    f"{why}): {fix}",
+                )
+            )
+    if notes:
+        shown = "; ".join(notes[:3]) + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
+        found.append(
+            Finding(
+                "python2", f"under Python 2, as under ROS, the code computed otherwise: {shown}"
+            )
+        )
+    return found
+
+
 def _cycles_with(failed: Sequence[dict[str, Any]], words: str) -> list[int]:
     return [int(c["cycle"]) for c in failed if words in str(c.get("detail") or "")]
 
@@ -198,6 +382,7 @@ def diagnose(
     records: Sequence[dict[str, Any]],
     poses: Sequence[FloatArray],
     failed_cycles: Sequence[dict[str, Any]] = (),
+    notes: Sequence[str] = (),
 ) -> list[Finding]:
     """The classic mistakes visible in an ik-check and a run.
 
@@ -206,6 +391,8 @@ def diagnose(
         records: ik-check records (:func:`kr210_sim.eval.ikcheck.case_record`).
         poses: The requested pose of each record (4x4).
         failed_cycles: The run's failed cycles, each with ``cycle`` and ``detail``.
+        notes: What Python 2 semantics changed in an original-form server's code (its
+            sandbox's notes).
 
     Returns:
         The findings, most telling first (empty when nothing is recognised).
@@ -214,6 +401,10 @@ def diagnose(
     for f in (offset_left_out(records), fixed_rotation(kin, records, poses)):
         if f is not None:
             found.append(f)
+    if not found:  # a varying rotation: an earlier pose's, or the Euler angles composed wrong
+        f = stale_rotation(kin, records, poses) or euler_order(kin, records, poses)
+        found += [f] if f is not None else []
+    found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
     counts = _branch_counts(records)
     for code, kind, fix in (

@@ -3,11 +3,16 @@
 A SUBMISSION is a SPEC (``path/file.py:function`` or ``package.module:function``), a ``.py``
 file (its ``solve``), or a folder: each ``.py`` file in it is one student, named by the file,
 and each subfolder is one student, named by the folder, whose ``solve`` is in
-:data:`STUDENT_MODULE` (or in the folder's only ``.py`` file). Files and folders whose names
-start with ``.`` or ``_`` are skipped; so is any other file, except three that look like a
-submission and cannot be graded, which are students with the verdict ``error`` and a detail
-that says what to do: a symbolic link to nothing, a file ending in ``.PY`` (any case but
-``.py``: Python imports only ``.py`` files) and a Jupyter notebook (``.ipynb``).
+:data:`STUDENT_MODULE` (or in the folder's only ``.py`` file). A subfolder that holds the
+original exercise's ROS server instead (a student's repository: ``kuka_arm/scripts/
+IK_server.py``, found by :func:`~kr210_sim.robot.ros.form.find_server`) is that student, graded
+by its ``handle_calculate_IK``; so is a ``.py`` file that is such a server, and a SUBMISSION
+that is one repository (its ``IK_server.py`` in ``kuka_arm/scripts``, ``scripts`` or itself).
+Files and folders whose names start with ``.`` or ``_`` are skipped; so is any other file,
+except three that look like a submission and cannot be graded, which are students with the
+verdict ``error`` and a detail that says what to do: a symbolic link to nothing, a file ending
+in ``.PY`` (any case but ``.py``: Python imports only ``.py`` files) and a Jupyter notebook
+(``.ipynb``).
 
 A student's name is shown and written as :func:`~kr210_sim.eval.record.printable` text: the
 undecodable bytes of a file name as ``\\xNN``, control characters as escapes.
@@ -22,6 +27,7 @@ from pathlib import Path
 
 from kr210_sim.errors import ConfigError
 from kr210_sim.eval.record import printable
+from kr210_sim.robot.ros.form import HANDLER, PLACES, SERVER, find_server, resolve_spec
 from kr210_sim.robot.user_ik import split_spec
 
 #: The module a student's folder keeps its ``solve`` in.
@@ -90,6 +96,9 @@ def _folder_student(folder: Path) -> Student:
         return Student(name, f"{module}:{STUDENT_FUNCTION}", root=str(folder))
     if why := _dangling(module):
         return Student(name, "", why)
+    server = find_server(folder)
+    if server is not None:  # a repository of the original exercise
+        return Student(name, f"{server}:{HANDLER}", root=str(folder))
     entries = sorted(p for p in folder.iterdir() if not p.name.startswith((".", "_")))
     files = [p for p in entries if p.suffix == ".py" and p.is_file()]
     if len(files) == 1:
@@ -129,10 +138,16 @@ def _entry_student(path: Path) -> Student | None:
             return None
         return Student(_shown(path.stem if path.suffix == ".py" else path.name), "", why)
     if path.suffix == ".py" and path.is_file():
-        return Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}", root=str(path))
+        return Student(_shown(path.stem), resolve_spec(str(path)), root=str(path))
     if why := _not_python(path):
         return Student(_shown(path.name), "", why)
     return None
+
+
+def _repository(path: Path) -> bool:
+    """Whether the folder ``path`` is one repository of the original exercise (its server in
+    ``kuka_arm/scripts``, ``scripts`` or itself), not a class folder."""
+    return any((path / place / SERVER).is_file() for place in PLACES)
 
 
 def _spec_student(text: str) -> Student:
@@ -183,7 +198,9 @@ def find_students(submissions: Sequence[str | Path]) -> list[Student]:
     for given in submissions:
         text = str(given)
         path = Path(text)
-        if path.is_dir():
+        if path.is_dir() and _repository(path):
+            students.append(_folder_student(path))
+        elif path.is_dir():
             found = [s for p in sorted(path.iterdir()) if (s := _entry_student(p)) is not None]
             if not found:
                 raise ConfigError(
@@ -193,7 +210,7 @@ def find_students(submissions: Sequence[str | Path]) -> list[Student]:
         elif path.suffix == ".py":
             if not path.is_file():
                 raise ConfigError(_dangling(path) or f"{_shown(text)}: no such file")
-            students.append(Student(_shown(path.stem), f"{path}:{STUDENT_FUNCTION}", root=text))
+            students.append(Student(_shown(path.stem), resolve_spec(text), root=text))
         elif path.exists() and _not_python(path):
             raise ConfigError(_not_python(path))
         elif ":" in text:
