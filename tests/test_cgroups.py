@@ -67,6 +67,7 @@ def test_groups_left_by_a_dead_grader_are_swept(tmp_path: Path) -> None:
     dead = subprocess.Popen(["true"])
     dead.wait()
     (tmp_path / f"{cgroups.PREFIX}{dead.pid}-0").mkdir()
+    (tmp_path / f"{cgroups.PREFIX}{dead.pid}-probe").mkdir()  # died while it looked
     (tmp_path / f"{cgroups.PREFIX}{os.getpid()}-0").mkdir()
     (tmp_path / "someone-else").mkdir()
     cgroups.sweep(tmp_path)

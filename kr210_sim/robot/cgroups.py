@@ -167,7 +167,7 @@ def sweep(folder: Path) -> None:
     before it could remove them)."""
     with contextlib.suppress(OSError):
         for entry in folder.iterdir():
-            m = re.fullmatch(re.escape(PREFIX) + r"(\d+)-\d+", entry.name)
+            m = re.fullmatch(re.escape(PREFIX) + r"(\d+)-(\d+|probe)", entry.name)
             if m and not _alive(int(m.group(1))):
                 with contextlib.suppress(OSError):
                     entry.rmdir()
