@@ -130,16 +130,31 @@ def check_outputs(
 
 
 def refuse_unservable(model: mujoco.MjModel) -> None:
-    """Refuse a cell (another than the committed one) none of whose slots can be served.
+    """Refuse a cell (another than the committed one) none of whose slots can be served, or
+    none of whose drop spots a dropped cylinder reaches the bin's floor from.
 
-    The slots are planned in turn until one can be served (usually the first: a cycle's
+    The drop spots are tested first (rays, no planning: such a cell is refused in one line);
+    then the slots are planned in turn until one can be served (usually the first: a cycle's
     planning); only a cell that serves none is checked whole, for the table.
 
     Raises:
-        UnservableCellError: With the check's table (see :mod:`kr210_sim.plan.cellcheck`).
+        UnservableCellError: With the check's table (see :mod:`kr210_sim.plan.cellcheck`), or
+            none when no drop spot reaches the floor.
     """
+    from kr210_sim.cell.layout import CellLayout
     from kr210_sim.plan.cellcheck import check_cell, first_served_slot
+    from kr210_sim.plan.landing import landing_blockers
 
+    layout = CellLayout.from_model(model)
+    landing = landing_blockers(model, layout)
+    if all(landing):
+        others = f"; at the {len(landing) - 1} other drop spots too" if len(landing) > 1 else ""
+        raise UnservableCellError(
+            f"cell {layout.name}: no drop spot can be served, so no cycle can succeed: "
+            f"{landing[0].replace('dropped here', 'dropped at drop 1')}{others} (clear the "
+            "space above the bin)",
+            "",
+        )
     if first_served_slot(model):
         return
     result = check_cell(model)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from random_cells import agreement, random_cell
 
 from kr210_sim.cell.load import compile_cell, model_for
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
@@ -111,21 +112,99 @@ def test_example_cells_run_with_no_contact(name: str) -> None:
         assert detours == 0
 
 
-def test_a_drop_spot_whose_cylinder_cannot_reach_the_bin_floor_is_not_served() -> None:
-    """A scene with a crate in the bin passed `check` (every cycle then ended missed_bin)."""
-    import mujoco
+def _cell(extra: str = "", **replace: str) -> str:
+    """The published cell's text with keys replaced (old text -> new) and ``extra`` added."""
+    text = PUBLISHED_CELL.read_text()
+    for old, new in replace.items():
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return text + extra
 
-    from kr210_sim.cell.layout import CellLayout
-    from kr210_sim.plan.cellcheck import landing_blocker
-    from kr210_sim.util.paths import SCENE_PATH
 
-    published = model_for()
-    layout = CellLayout.from_model(published)
-    assert all(landing_blocker(published, layout, n) == "" for n in range(1, 10))
-    spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
-    crate = spec.worldbody.add_body(name="crate", pos=[0.0, 2.5, 0.4])
-    crate.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.3, 0.3])
-    blocked = spec.compile()
-    for n in range(1, 10):
-        why = landing_blocker(blocked, CellLayout.from_model(blocked), n)
-        assert why.startswith("a cylinder dropped here lands on crate at z = 0.70 m"), why
+#: A column by the ready pose, where the held target would be at the ready pose.
+COLUMN_BY_READY = "\n[[obstacles]]\nposition = [1.46, 1.5, 0.925]\nsize = [0.3, 0.3, 1.85]\n"
+#: A beam over the bin's middle row, above the rim (the red team's).
+BEAM = "\n[[obstacles]]\nposition = [0.0, 2.5, 1.1]\nsize = [1.2, 0.2, 0.1]\n"
+#: A lid over the whole bin.
+LID = "\n[[obstacles]]\nposition = [0.0, 2.5, 1.05]\nsize = [1.2, 1.2, 0.1]\n"
+
+
+def test_drop_spots_are_judged_from_where_a_carry_starts() -> None:
+    """A column where the held target would be at the ready pose: every drop spot was "no" (a
+    carry from the ready pose holding the target strikes it), yet no cycle carries from there,
+    and run is 10/10. The drop rows are planned from a served slot's retreat now."""
+    result = check_cell(compile_cell(parse_cell(_cell(COLUMN_BY_READY))))
+    assert result.ok
+    assert all(r.served for r in result.slots)
+    assert [r.detail for r in result.drops] == ["carried from slot 1's retreat"] * 9
+
+
+def test_no_cylinder_goes_to_a_drop_spot_that_never_reaches_the_floor() -> None:
+    """The beam over the bin's middle row: check served every slot with the carry to drop 1,
+    where a cylinder lands on the beam (run 6/10 missed_bin, evaluate's first cycles 0/6). The
+    slot rows carry to drop 4, the first that reaches the floor, and so does a run's first
+    cycle."""
+    model = compile_cell(parse_cell(_cell(BEAM, **{'name = "published"': 'name = "beam"'})))
+    result = check_cell(model)
+    assert [r.drop_spot for r in result.slots] == [4] * 9 and all(r.served for r in result.slots)
+    assert [r.served for r in result.drops] == [False] * 3 + [True] * 6
+    assert result.drops[0].detail.startswith("a cylinder dropped here lands on obstacle_1")
+    runner = Runner(RunConfig(cycles=1), model=model)
+    assert runner.drop_spots == (3, 4, 5, 6, 7, 8)
+    r = runner.run_cycle(1, 5)
+    assert r.success, r.detail
+    assert runner.plan is not None and runner.plan.drop_spot == 3
+
+
+def test_run_refuses_a_bin_under_a_lid_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A lid over the whole bin: no cycle can succeed, and run went 0/N."""
+    cell = tmp_path / "lid.toml"
+    cell.write_text(_cell(LID, **{'name = "published"': 'name = "lid"'}))
+    report = tmp_path / "r.json"
+    assert main(["run", "--cell", str(cell), "--report", str(report)]) == 2
+    assert not report.exists()
+    err = capsys.readouterr().err
+    assert err == (
+        "kr210_sim: error: cell lid: no drop spot can be served, so no cycle can succeed: a "
+        "cylinder dropped at drop 1 lands on obstacle_1 at z = 1.10 m, above the bin's floor "
+        "(0.05 m); at the 8 other drop spots too (clear the space above the bin)\n"
+    )
+    assert main(["check", "--cell", str(cell)]) == 1
+    out = capsys.readouterr().out
+    assert out.count("no drop spot can be served") == 9 and "slot 9         yes    no" in out
+
+
+def test_a_bin_partly_out_of_reach_is_served_at_the_spots_in_reach() -> None:
+    """The bin 3.5 m out: drop spots 1-6 are beyond reach, 7-9 (its near row) are not. The
+    carry goes to the first in turn whose place can be planned, the least used first: a run's
+    cycles went to 1-6 (unreachable)."""
+    text = _cell(**{"position = [0.0, 2.5]": "position = [0.0, 3.5]"})
+    model = compile_cell(parse_cell(text))
+    result = check_cell(model)
+    assert [r.drop_spot for r in result.slots] == [7] * 9
+    assert [r.served for r in result.drops] == [False] * 6 + [True] * 3
+    assert "drop pose" in result.drops[0].detail and "out of reach" in result.drops[0].detail
+    runner = Runner(RunConfig(cycles=2), model=model)
+    for i in (1, 2):
+        assert runner.run_cycle(i, 5).success
+    assert runner.plan is not None and runner.plan.drop_spot + 1 == 8  # not drop 7 again
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("seed", "rounds", "served"),
+    [(34, 2, [True]), (61, 1, [True, False, True]), (234, 1, [True, False])],
+)
+def test_check_agrees_with_run_on_cells_drawn_at_random(
+    seed: int, rounds: int, served: list[bool]
+) -> None:
+    """Three cells drawn at random (``tests/random_cells.py``; ``benchmarks/cell_sweep.py``
+    runs hundreds): a beam over part of the bin (seed 34, six drop spots reach the floor), a
+    shelf with a slot whose approach strikes an obstacle and drop spots under obstacles (61),
+    a ready pose of its own (234). Every slot check serves runs clean with run, every slot it
+    refuses does not."""
+    result = agreement(random_cell(seed), rounds)
+    assert [s.served for s in result.slots] == served
+    assert not result.disagreements, [s.describe() for s in result.disagreements]

@@ -11,7 +11,8 @@ import pytest
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
-from kr210_sim.plan.cycle import CyclePlan, Grip, drop_spot_index
+from kr210_sim.errors import UnreachablePoseError
+from kr210_sim.plan.cycle import CyclePlan, Grip, drop_spot_index, drop_spot_order
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
@@ -22,10 +23,14 @@ def cell() -> tuple[Planner, CellLayout]:
     return Planner(load_robot(), MotionConfig()), CellLayout.from_model(load_model())
 
 
+def _target(layout: CellLayout, slot: int) -> np.ndarray:
+    """The nominal target's centre in ``slot`` [m]."""
+    return layout.slots[slot - 1] + np.array([0.0, 0.0, layout.target.length / 2.0])
+
+
 def _plan(planner: Planner, layout: CellLayout, slot: int, placed: int = 0) -> CyclePlan:
     t = layout.target
-    p = layout.slots[slot - 1] + np.array([0.0, 0.0, t.length / 2.0])
-    return planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots, placed)
+    return planner.plan_cycle(planner.ready_q, _target(layout, slot), t, layout.drop_spots, placed)
 
 
 def test_the_plan_is_the_whole_cycle_in_order(cell: tuple[Planner, CellLayout]) -> None:
@@ -74,6 +79,34 @@ def test_the_drop_spots_are_taken_in_turn(cell: tuple[Planner, CellLayout]) -> N
         carry = next(s for s in plan.steps if s.phase == "carry")
         expected = planner.drop_pose(layout.drop_spots[placed % n], layout.target.radius)
         assert carry.T is not None and np.array_equal(carry.T, expected)
+
+
+def test_the_drop_spot_order_skips_what_is_not_usable_and_spreads_the_cylinders() -> None:
+    """The spots a carry tries: the usable ones in turn from the one ``placed`` picks; with the
+    cylinders carried to each so far, the least used first (in turn among equals)."""
+    usable = (3, 4, 5, 6, 7, 8)  # a beam over the first row
+    assert drop_spot_order(0, usable) == (3, 4, 5, 6, 7, 8)
+    assert drop_spot_order(7, usable) == (4, 5, 6, 7, 8, 3)
+    assert drop_spot_order(0, ()) == ()
+    dropped = [0, 0, 0, 0, 0, 0, 2, 1, 1]  # only drops 7-9 reached, 7 twice
+    assert drop_spot_order(3, (6, 7, 8), dropped) == (7, 8, 6)
+    assert drop_spot_order(5, (6, 7, 8), dropped) == (8, 7, 6)
+    # every spot used as often: the order in turn, as without counts
+    assert drop_spot_order(5, tuple(range(9)), [1] * 9) == drop_spot_order(5, tuple(range(9)))
+
+
+def test_a_carry_goes_to_the_next_spot_whose_place_can_be_planned(
+    cell: tuple[Planner, CellLayout],
+) -> None:
+    """Drop spot 2's place fails (its pose is moved out of reach): the carry goes to drop 3,
+    the next in turn; with only drop 2 to use, the cycle says why it cannot be planned."""
+    planner, layout = cell
+    spots = layout.drop_spots.copy()
+    spots[1] = (0.0, 4.0)  # beyond the arm's reach
+    plan = planner.plan_cycle(planner.ready_q, _target(layout, 5), layout.target, spots, 1)
+    assert plan.drop_spot == 2
+    with pytest.raises(UnreachablePoseError, match="drop pose"):
+        planner.plan_place(plan.end_of("retreat"), layout.target, spots, 0, (1,))
 
 
 def test_a_cycle_ends_with_the_place_part(cell: tuple[Planner, CellLayout]) -> None:

@@ -88,6 +88,30 @@ def test_a_cylinder_left_on_the_shelf_is_cleared_before_the_next_cycle_only() ->
     assert [(e.kind.value, e.before_cycle) for e in runner.events] == [("shelf_cleared", 2)]
 
 
+def test_a_tower_at_a_drop_spot_leaves_it_no_room_and_the_bin_is_emptied_for_it() -> None:
+    """Cylinders standing on each other at drop spot 1: with three, a fourth dropped there
+    stands with its centre below the rim (room); with four, above it (no room). When the only
+    spots the carry reaches have no room, the bin is emptied (an event, the cylinder to pick
+    left in its slot) and the cycle planned again; it dropped onto the tower before."""
+    runner = Runner(RunConfig(cycles=1), model=load_model())
+    x, y = runner.layout.drop_spots[0]
+    spec = runner.layout.target
+    for level in range(4):
+        runner.targets.spawn((x, y, 0.05 + spec.length * (level + 0.5)), 0.0, spec)
+        room = runner.drop_spots_with_room(spec.length)
+        assert room == tuple(range(0 if level < 3 else 1, 9))
+    runner.drop_spots = (0,)  # as if the carry reached drop 1 alone
+    r = runner.run_cycle(1, 5)
+    assert r.success, r.detail
+    (event,) = runner.events
+    assert (event.kind.value, event.before_cycle) == ("bin_emptied", 1)
+    assert event.detail == (
+        "the bin was emptied (4 cylinders): no drop spot with room for another cylinder could "
+        "be reached"
+    )
+    assert runner.targets.in_play == [4] and r.cycle_time < 6.0  # the event is not the arm's
+
+
 def test_slippery_heavy_target_is_dropped_in_transit() -> None:
     model = load_model()  # the nominal target is target_0 as the model holds it
     model.geom_friction[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "target_0"), 0] = 0.02

@@ -1,16 +1,21 @@
 """The ``check`` command: can this cell be served, slot by slot and drop spot by drop spot?
 
-For every slot the nominal target's whole cycle is planned as the first cycle of a run plans it
-(:meth:`~kr210_sim.plan.planner.Planner.plan_cycle`), before anything runs: standoff, grasp,
-lift and retreat (IK inside the limits), the carry to the drop spot the run picks first and the
-return, each collision-checked (:mod:`kr210_sim.plan.collide`) and planned around what blocks it
-(OMPL) where it must be.
-Every drop spot is planned from the ready pose with the target held. The table says, per row,
-whether it is reachable, whether a collision-free plan was found, which planner found it
-(direct, or OMPL and for which phases), the gripper's heading at the pick when the radial one
-collides, the planning time, the length of the path in joint
-space and at the gripper, and what blocks otherwise; above it, whether the ready pose had to be
-moved clear of the cell.
+Each row judges the moves a run's cycles really make, with the planner they are planned with
+(:meth:`~kr210_sim.plan.planner.Planner.plan_cycle`), before anything runs. A slot's row is the
+nominal target's whole cycle from the ready pose, as a run's first cycle plans it: standoff,
+grasp, lift and retreat (IK inside the limits; another IK branch when the nearest one cannot
+make the cycle), the carry to the drop spot it goes to and the return, each collision-checked
+(:mod:`kr210_sim.plan.collide`) and planned around what blocks it (OMPL) where it must be. Its
+drop spot is the first usable one (a cylinder dropped there reaches the bin's floor,
+:mod:`kr210_sim.plan.landing`) whose carry can be planned: a run carries to them in turn, and
+to the next whose carry can be planned. A drop spot's row is first the landing test, then its
+carry, release and return from where a cycle's carry starts: the retreat of the first served
+slot whose carry reaches it (of the first slot whose pick can be planned, when none is served).
+The table says, per row, whether it is reachable, whether a collision-free plan was found, the
+drop spot the carry goes to, which planner found it (direct, or OMPL and for which phases), the
+gripper's heading at the pick when the radial one collides, the planning time, the length of
+the path in joint space and at the gripper, and what blocks otherwise; above it, whether the
+ready pose had to be moved clear of the cell.
 """
 
 from __future__ import annotations
@@ -23,18 +28,22 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.cycle import CyclePlan, drop_spot_index
+from kr210_sim.plan.cycle import CyclePlan
+from kr210_sim.plan.landing import landing_blockers, usable_drop_spots
 from kr210_sim.plan.planner import Planner
 from kr210_sim.plan.routing import path_lengths
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
 
 import mujoco  # isort: skip
+
+FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,8 +57,8 @@ class CheckRow:
         detour: A move of the plan was planned by OMPL around what blocked its direct move.
         planning_ms: Wall time of the planning [ms].
         detail: What blocks (empty when served).
-        drop_spot: The drop spot the row's carry goes to (1-based; for a slot, the one the
-            run's first cycle picks).
+        drop_spot: The drop spot the row's carry goes to (1-based; for a slot, the one a
+            run's first cycle carries to; 0 when none).
         planner: "direct", or "ompl" and the phases OMPL planned ("ompl: approach, carry").
         joint_length: Length of the plan's path in joint space [rad].
         gripper_length: Length of the gripper's path [m].
@@ -109,7 +118,7 @@ class CellCheck:
         if self.ready_note:
             lines.append(f"  ready pose: {self.ready_note}")
         lines.append(
-            f"  {'':<8} {'reachable':>9} {'path':>5} {'planner':<22} {'plan ms':>8} "
+            f"  {'':<8} {'reachable':>9} {'path':>5} {'drop':>4} {'planner':<22} {'plan ms':>8} "
             f"{'joint rad':>9} {'gripper m':>9}  blocked by (or note)"
         )
         yes = {True: "yes", False: "no"}
@@ -121,24 +130,27 @@ class CellCheck:
                     detail = f"picked {r.heading_deg:+.0f} deg off the radial (that one collides)"
             else:
                 figures = f"{'-':>9} {'-':>9}"
+            drop = str(r.drop_spot) if r.path else "-"
             lines.append(
-                f"  {r.what:<8} {yes[r.reachable]:>9} {yes[r.path]:>5} "
+                f"  {r.what:<8} {yes[r.reachable]:>9} {yes[r.path]:>5} {drop:>4} "
                 f"{r.planner if r.path else '-':<22} {r.planning_ms:8.1f} {figures}  {detail}"
             )
         return "\n".join(lines)
 
 
-def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], CyclePlan]) -> CheckRow:
-    detours = planner.detours
+def _row(
+    what: str, planner: Planner, plan: Callable[[], CyclePlan]
+) -> tuple[CheckRow, CyclePlan | None]:
+    """The row of one plan, and the plan (None when it failed)."""
     t0 = time.perf_counter()
     try:
         cycle = plan()
     except NoPathError as exc:
         ms = 1e3 * (time.perf_counter() - t0)
-        return CheckRow(what, True, False, False, ms, str(exc), drop_spot)
+        return CheckRow(what, True, False, False, ms, str(exc)), None
     except (UnreachablePoseError, IkFailedError, PlanningError) as exc:
         ms = 1e3 * (time.perf_counter() - t0)
-        return CheckRow(what, False, False, False, ms, str(exc), drop_spot)
+        return CheckRow(what, False, False, False, ms, str(exc)), None
     ms = 1e3 * (time.perf_counter() - t0)
     moves = cycle.moves
     ompl = [m.phase for m in moves if m.planner == "ompl"]
@@ -146,74 +158,114 @@ def _row(what: str, drop_spot: int, planner: Planner, plan: Callable[[], CyclePl
     lengths = [path_lengths(m.trajectory, planner.kinematics) for m in moves]
     joint = sum(a for a, _ in lengths)
     grip = sum(b for _, b in lengths)
-    detour = planner.detours > detours
     heading = round(math.degrees(cycle.heading_offset), 6)
-    return CheckRow(what, True, True, detour, ms, "", drop_spot, used, joint, grip, heading)
+    row = CheckRow(
+        what, True, True, cycle.detours > 0, ms, "", cycle.drop_spot + 1, used, joint, grip, heading
+    )
+    return row, cycle
 
 
-#: Geom groups of colliders (cell parts 0, robot and dressing colliders 3): what a dropped
-#: cylinder can land on.
-_COLLIDER_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)
+#: A slot's note when no drop spot reaches the bin's floor.
+NO_DROP_SPOT = "no drop spot can be served: a cylinder dropped at any of them lands above the floor"
 
 
-def landing_blocker(model: mujoco.MjModel, layout: CellLayout, spot: int) -> str:
-    """What stops a cylinder dropped at drop spot ``spot`` (1-based) above the bin's floor, or
-    "" when it falls to the floor (a box in the bin: every cycle would end ``missed_bin``).
+@dataclass
+class _Check:
+    """What a check plans with, and the slot plans it has made."""
 
-    Rays straight down from above the rim, at the spot and four points on the cylinder's
-    rim, against the colliders of the model at its first keyframe.
-    """
-    data = mujoco.MjData(model)
-    if model.nkey:
-        mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_forward(model, data)
-    b, r = layout.bin, layout.target.radius
-    x, y = layout.drop_spots[spot - 1][:2]
-    top = b.rim + 1.0
-    hit = np.zeros(1, dtype=np.int32)
-    for dx, dy in ((0.0, 0.0), (r, 0.0), (-r, 0.0), (0.0, r), (0.0, -r)):
-        start = np.array([x + dx, y + dy, top])
-        dist = mujoco.mj_ray(
-            model, data, start, np.array([0.0, 0.0, -1.0]), _COLLIDER_GROUPS, 1, -1, hit
-        )
-        if dist >= 0 and top - dist > b.floor_top + 0.005:
-            body = model.body(int(model.geom_bodyid[hit[0]])).name or "a geom"
-            return (
-                f"a cylinder dropped here lands on {body} at z = {top - dist:.2f} m, above the "
-                f"bin's floor ({b.floor_top:.2f} m)"
+    model: mujoco.MjModel
+    planner: Planner
+    layout: CellLayout
+    landing: tuple[str, ...]
+    usable: tuple[int, ...]
+    plans: dict[int, CyclePlan] = dataclasses.field(default_factory=dict)
+
+    @classmethod
+    def of(
+        cls, model: mujoco.MjModel, robot: RobotDescription | None, motion: MotionConfig | None
+    ) -> _Check:
+        layout = CellLayout.from_model(model)
+        robot = robot or load_robot()
+        kin = Kinematics(robot)
+        planner = Planner(robot, motion or MotionConfig(), None, CollisionChecker(model, kin))
+        landing = landing_blockers(model, layout)
+        return cls(model, planner, layout, landing, usable_drop_spots(landing))
+
+    def target_at(self, n: int) -> FloatArray:
+        """The nominal target's centre in slot ``n`` [m]."""
+        return self.layout.slots[n - 1] + np.array([0.0, 0.0, self.layout.target.length / 2.0])
+
+    def slot_row(self, n: int) -> CheckRow:
+        """Slot ``n``'s row: its first cycle, as a run plans it."""
+        layout, planner = self.layout, self.planner
+        spots = self.usable or tuple(range(len(layout.drop_spots)))
+
+        def plan() -> CyclePlan:
+            ready = planner.ready_q
+            return planner.plan_cycle(
+                ready, self.target_at(n), layout.target, layout.drop_spots, 0, spots
             )
-    return ""
 
+        row, cycle = _row(f"slot {n}", planner, plan)
+        if not self.usable:
+            detail = f"{NO_DROP_SPOT}; {row.detail}" if row.detail else NO_DROP_SPOT
+            return dataclasses.replace(row, path=False, detail=detail)
+        if cycle is not None:
+            self.plans[n] = cycle
+        return row
 
-def _landing(model: mujoco.MjModel, layout: CellLayout, spot: int, row: CheckRow) -> CheckRow:
-    """``row`` of drop spot ``spot``, not served when a dropped cylinder cannot reach the
-    bin's floor."""
-    blocker = landing_blocker(model, layout, spot) if row.served else ""
-    return dataclasses.replace(row, path=False, detail=blocker) if blocker else row
+    def rows(self) -> Iterator[CheckRow]:
+        """The slot rows, planned one by one as they are asked for."""
+        return (self.slot_row(n) for n in range(1, self.layout.n_slots + 1))
 
+    def carry_starts(self) -> list[tuple[int, FloatArray]]:
+        """Where a cycle's carry starts: the retreat of each served slot (of each slot whose
+        pick can be planned when none is), with the slot."""
+        if self.plans:
+            return [(n, p.end_of("retreat")) for n, p in sorted(self.plans.items())]
+        t, starts = self.layout.target, []
+        for n in range(1, self.layout.n_slots + 1):
+            try:
+                grasp = self.planner.plan_grasp(
+                    self.planner.ready_q, self.target_at(n), t.radius, t.length
+                )
+            except (UnreachablePoseError, PlanningError):
+                continue
+            starts.append((n, grasp.retreat.q_end))
+        return starts
 
-def _slot_rows(
-    model: mujoco.MjModel, robot: RobotDescription | None, motion: MotionConfig | None
-) -> tuple[Planner, CellLayout, Iterator[CheckRow]]:
-    """The planner and layout of a check, and its slot rows, planned one by one as they are
-    asked for."""
-    layout = CellLayout.from_model(model)
-    robot = robot or load_robot()
-    planner = Planner(
-        robot, motion or MotionConfig(), None, CollisionChecker(model, Kinematics(robot))
-    )
-    t = layout.target
-    first = drop_spot_index(0, len(layout.drop_spots)) + 1  # a run's first cycle's
-
-    def slot_plan(n: int) -> CyclePlan:
-        p = layout.slots[n - 1] + np.array([0.0, 0.0, t.length / 2.0])
-        return planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots)
-
-    rows = (
-        _row(f"slot {n}", first, planner, partial(slot_plan, n))
-        for n in range(1, layout.n_slots + 1)
-    )
-    return planner, layout, rows
+    def drop_row(self, n: int, starts: list[tuple[int, FloatArray]]) -> CheckRow:
+        """Drop spot ``n``'s row: where a cylinder dropped there lands, then its place from
+        the first of ``starts`` that reaches it."""
+        what = f"drop {n}"
+        if self.landing[n - 1]:
+            return CheckRow(what, True, False, False, 0.0, self.landing[n - 1], n)
+        if not starts:
+            return CheckRow(
+                what, False, False, False, 0.0, "no slot's pick can be planned: no carry starts", n
+            )
+        t = self.layout.target
+        first: CheckRow | None = None
+        ms = 0.0
+        for slot, q in starts:
+            row, cycle = _row(
+                what,
+                self.planner,
+                partial(self.planner.plan_place, q, t, self.layout.drop_spots, 0, (n - 1,)),
+            )
+            ms += row.planning_ms
+            if cycle is not None:
+                return dataclasses.replace(
+                    row, planning_ms=ms, detail=f"carried from slot {slot}'s retreat"
+                )
+            first = first or row
+        assert first is not None
+        return dataclasses.replace(
+            first,
+            planning_ms=ms,
+            drop_spot=n,
+            detail=f"from slot {starts[0][0]}'s retreat: {first.detail}",
+        )
 
 
 def first_served_slot(
@@ -224,8 +276,7 @@ def first_served_slot(
     """The first slot (1-based) of the cell ``model`` whose cycle can be planned clear (as
     :func:`check_cell` plans it), or 0 when none can: what ``run`` and ``view`` need to know
     before they start, without planning every slot and drop spot."""
-    _, _, rows = _slot_rows(model, robot, motion)
-    for n, row in enumerate(rows, start=1):
+    for n, row in enumerate(_Check.of(model, robot, motion).rows(), start=1):
         if row.served:
             return n
     return 0
@@ -237,15 +288,8 @@ def check_cell(
     motion: MotionConfig | None = None,
 ) -> CellCheck:
     """Plan every slot and drop spot of the cell ``model`` simulates (see the module doc)."""
-    planner, layout, rows = _slot_rows(model, robot, motion)
-    slots = tuple(rows)
-    t = layout.target
-
-    def drop_plan(n: int) -> CyclePlan:  # the place part of a cycle, from the ready pose
-        return planner.plan_place(planner.ready_q, t, layout.drop_spots, placed=n - 1)
-
-    drops = tuple(
-        _landing(model, layout, n, _row(f"drop {n}", n, planner, partial(drop_plan, n)))
-        for n in range(1, len(layout.drop_spots) + 1)
-    )
-    return CellCheck(layout.name, slots, drops, planner.ready_note)
+    check = _Check.of(model, robot, motion)
+    slots = tuple(check.rows())
+    starts = check.carry_starts()
+    drops = tuple(check.drop_row(n, starts) for n in range(1, len(check.layout.drop_spots) + 1))
+    return CellCheck(check.layout.name, slots, drops, check.planner.ready_note)

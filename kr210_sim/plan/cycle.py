@@ -9,6 +9,7 @@ one more step in ``plan_cycle`` and nothing else.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -128,11 +129,35 @@ class CyclePlan:
 
 
 def drop_spot_index(placed: int, n_spots: int) -> int:
-    """The drop spot of the next carry: the spots in turn, from the first after the bin is
-    emptied.
+    """The drop spot of the next carry among ``n_spots``: the spots in turn, from the first
+    after the bin is emptied.
 
     Args:
         placed: Targets put in play since the bin was last emptied, this cycle's not counted.
-        n_spots: Drop spots of the cell.
+        n_spots: Drop spots to choose from.
     """
     return placed % n_spots
+
+
+def drop_spot_order(
+    placed: int, spots: Sequence[int], dropped: Sequence[int] | None = None
+) -> tuple[int, ...]:
+    """The drop spots the next carry tries, in order: the one in turn among ``spots``
+    (:func:`drop_spot_index`), then the others in turn after it; with ``dropped``, the spots
+    fewest cylinders were carried to since the bin was emptied come first (in that order among
+    equals), so that cylinders spread over the bin when some spots cannot be reached. A carry
+    goes to the first whose place (carry, release, return) can be planned.
+
+    Args:
+        placed: As :func:`drop_spot_index`.
+        spots: The drop spots to use (0-based, in the cell's order): those a dropped cylinder
+            reaches the bin's floor from (:func:`~kr210_sim.plan.landing.usable_drop_spots`).
+        dropped: Cylinders carried to each of the cell's drop spots since the bin was emptied
+            (indexed by spot), or None.
+    """
+    n = len(spots)
+    first = drop_spot_index(placed, n) if n else 0
+    turn = [spots[(first + i) % n] for i in range(n)]
+    if dropped is not None:
+        turn.sort(key=lambda s: dropped[s])  # stable: in turn among equals
+    return tuple(turn)

@@ -22,14 +22,17 @@ records, the video shows and view's demo mode stops before)::
     release   grip  open, wait
     return    PTP   back to the ready pose
 
-The carry goes to the cell's drop spots in turn (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+The carry goes to the cell's drop spots in turn, those a dropped cylinder reaches the bin's
+floor from (:func:`~kr210_sim.plan.cycle.drop_spot_order`); when the pick cannot be planned from
+the standoff's IK solution nearest the start, the other branches are tried.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -39,7 +42,15 @@ from kr210_sim.cell.layout import ready_q_of
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
-from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_index
+from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_order
+from kr210_sim.plan.poses import (
+    GRASP_HEADINGS,
+    branch_solutions,
+    grasp_depth,
+    gripper_pose,
+    radial_yaw,
+    untwisted_nearest,
+)
 from kr210_sim.plan.routing import Router, clear_ready
 from kr210_sim.plan.timing import rest_to_rest_bound
 from kr210_sim.plan.trajectory import (
@@ -54,9 +65,6 @@ from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 
 FloatArray = npt.NDArray[np.float64]
-
-#: Clearance between the cylinder and the fingertip lips at the grasp, along x [m].
-LIP_CLEARANCE = 0.0005
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,84 +87,6 @@ class GraspPlan:
     lift: Move
     retreat: Move
     yaw: float = 0.0
-
-
-def grasp_depth(robot: RobotDescription, radius: float) -> float:
-    """x of the target's axis in the gripper_link frame at the grasp [m].
-
-    The cylinder sits as far forward as the fingertip lips allow with :data:`LIP_CLEARANCE` to
-    spare, so the lips catch it if it creeps out of the grip during fast swings.
-
-    Args:
-        robot: The robot description (finger and lip geometry).
-        radius: Target radius [m].
-
-    Raises:
-        PlanningError: When the cylinder is too small for the lips to retain it or too large to
-            fit between the open fingers.
-    """
-    d = robot.lip_depth
-    if radius <= d:
-        raise PlanningError(f"target radius {radius:.3f} m is too small for the {d} m lips")
-    open_gap = robot.finger_gap(robot.finger_lower) - 2.0 * d
-    if 2.0 * radius >= open_gap - 0.01:
-        raise PlanningError(
-            f"target diameter {2 * radius:.3f} m does not fit the open fingers ({open_gap:.3f} m)"
-        )
-    return robot.lip_x - math.sqrt(2.0 * radius * d - d * d) - LIP_CLEARANCE
-
-
-def gripper_pose(position: npt.ArrayLike, yaw: float = 0.0) -> FloatArray:
-    """gripper_link pose at ``position`` [m], level, pointing at heading ``yaw`` [rad]."""
-    T = np.eye(4)
-    c, s = math.cos(yaw), math.sin(yaw)
-    T[:3, :3] = ((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
-    T[:3, 3] = np.asarray(position, dtype=np.float64)
-    return T
-
-
-def radial_yaw(position: npt.ArrayLike) -> float:
-    """Heading [rad] of the horizontal line from the joint_1 axis through ``position`` [m]."""
-    p = np.asarray(position, dtype=np.float64)
-    return math.atan2(p[1], p[0])
-
-
-#: Headings tried for a pick, off the radial, when the radial one collides [deg]: the nearest
-#: first, to either side (the wrist twists more the farther off the radial it points).
-GRASP_HEADINGS = tuple(s * d for d in range(5, 50, 5) for s in (1, -1))
-
-#: Largest |q4| and |q6| of an untwisted wrist [rad].
-UNTWISTED = math.pi / 2
-
-
-def untwisted_nearest(kin: Kinematics, T: FloatArray, q_ref: FloatArray) -> FloatArray:
-    """The IK solution for ``T`` whose wrist is untwisted (|q4| and |q6| below 90 deg) nearest
-    ``q_ref`` (weighed as :meth:`Kinematics.nearest` weighs), else ``kin.nearest``'s.
-
-    A level gripper reached with the wrist turned half a turn (q6 = +-pi, the arm over its head)
-    points the fingers up halfway through a move from a level pose: a held part would fall.
-
-    Raises:
-        UnreachablePoseError: When no solution lies inside the limits.
-    """
-    g = kin.geometry
-    ref = np.asarray(q_ref, dtype=np.float64)
-    best, best_cost = None, math.inf
-    for sol in kin.inverse(T):
-        q = sol.copy()
-        k = np.round((ref[0] - q[0]) / (2 * math.pi))
-        for twin in q[0] + 2 * math.pi * (k + np.arange(-1, 2)):
-            if g.lower[0] <= twin <= g.upper[0] and abs(twin - ref[0]) < abs(q[0] - ref[0]):
-                q[0] = twin
-        q[3], q[5] = math.remainder(q[3], 2 * math.pi), math.remainder(q[5], 2 * math.pi)
-        if abs(q[3]) > UNTWISTED or abs(q[5]) > UNTWISTED:
-            continue
-        if np.any(q < g.lower) or np.any(q > g.upper):
-            continue
-        cost = float(np.sum(((q - ref) / g.v_max) ** 2))
-        if cost < best_cost:
-            best, best_cost = q, cost
-    return best if best is not None else kin.nearest(T, ref)
 
 
 class Planner:
@@ -305,6 +235,34 @@ class Planner:
         except UnreachablePoseError as exc:
             raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
 
+    def branches(self, T: FloatArray, q_ref: FloatArray, what: str) -> list[FloatArray]:
+        """The solutions for ``T`` a pick tries in turn (:func:`branch_solutions`; the user's
+        IK gives one), the pose named in the error message.
+
+        Raises:
+            UnreachablePoseError: When there is none.
+            IkFailedError: When the user's IK gives an unusable answer.
+        """
+        if self.user_ik is not None:
+            return [self.solve(T, q_ref, what)]
+        try:
+            return branch_solutions(self.kinematics, T, q_ref)
+        except UnreachablePoseError as exc:
+            raise UnreachablePoseError(f"{what} pose {T[:3, 3].round(3).tolist()}: {exc}") from exc
+
+    def _standoff(self, T: FloatArray, q_ref: FloatArray, branch: int) -> FloatArray:
+        """Solution ``branch`` of :meth:`branches` for the standoff ``T``.
+
+        Raises:
+            UnreachablePoseError: When the pose has no solution, or fewer than ``branch`` + 1.
+        """
+        if branch == 0:
+            return self.solve(T, q_ref, "standoff")
+        found = self.branches(T, q_ref, "standoff")
+        if branch >= len(found):
+            raise UnreachablePoseError(f"standoff pose: no IK branch {branch + 1}")
+        return found[branch]
+
     def grasp_poses(
         self, target_position: npt.ArrayLike, target_radius: float, yaw: float | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -335,6 +293,7 @@ class Planner:
         target_position: npt.ArrayLike,
         target_radius: float,
         held_length: float | None = None,
+        branch: int = 0,
     ) -> GraspPlan:
         """Plan ready -> standoff -> grasp -> lift -> retreat for a target.
 
@@ -349,10 +308,12 @@ class Planner:
             target_position: Observed target centre [m].
             target_radius: Target radius [m].
             held_length: Target length [m], for the collision checks of the held target.
+            branch: Which IK solution of each heading's standoff to start the straight lines
+                from (:meth:`branches`: 0, the one nearest ``q_start``).
 
         Raises:
             UnreachablePoseError: When a pose of the radial pick has no IK solution inside the
-                limits.
+                limits (or its standoff fewer than ``branch`` + 1).
             NoPathError: When a straight line collides at every heading (the message says what
                 blocks the radial one), or the approach collides and OMPL finds no clear path.
             IkFailedError: When the user's IK gives an unusable answer.
@@ -362,9 +323,9 @@ class Planner:
         radial = radial_yaw(p)
         held = TargetSpec(radius=target_radius, length=held_length or 0.25)
         try:
-            yaw, lines = radial, self._pick_lines(q_start, p, target_radius, held, radial)
+            yaw, lines = radial, self._pick_lines(q_start, p, target_radius, held, radial, branch)
         except NoPathError as blocked:
-            yaw, lines = self._other_heading(q_start, p, target_radius, held, blocked)
+            yaw, lines = self._other_heading(q_start, p, target_radius, held, blocked, branch)
         approach_lin, lift, retreat = lines
         approach_ptp = self.ptp("approach", q_start, approach_lin.trajectory.q_start)
         if self.checker is not None:
@@ -373,16 +334,22 @@ class Planner:
         return GraspPlan(T_grasp, approach_ptp, approach_lin, lift, retreat, yaw)
 
     def _pick_lines(
-        self, q_start: FloatArray, p: FloatArray, radius: float, held: TargetSpec, yaw: float
+        self,
+        q_start: FloatArray,
+        p: FloatArray,
+        radius: float,
+        held: TargetSpec,
+        yaw: float,
+        branch: int = 0,
     ) -> tuple[Move, Move, Move]:
         """The straight lines of a pick at heading ``yaw`` [rad] (approach, lift, retreat from
-        the standoff nearest ``q_start``), checked against the cell.
+        the standoff's solution ``branch``, :meth:`branches`), checked against the cell.
 
         Raises:
             NoPathError: When one collides (its ends included).
         """
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(p, radius, yaw)
-        q_standoff = self.solve(T_standoff, q_start, "standoff")
+        q_standoff = self._standoff(T_standoff, q_start, branch)
         approach_lin = self.lin("approach", q_standoff, T_grasp)
         lift = self.lin("lift", approach_lin.q_end, T_lift)
         retreat = self.lin("retreat", lift.q_end, T_back)
@@ -399,6 +366,7 @@ class Planner:
         radius: float,
         held: TargetSpec,
         blocked: NoPathError,
+        branch: int = 0,
     ) -> tuple[float, tuple[Move, Move, Move]]:
         """The first heading of :data:`GRASP_HEADINGS` whose pick's poses and lines are clear.
 
@@ -408,10 +376,10 @@ class Planner:
         radial = radial_yaw(p)
         for offset in GRASP_HEADINGS:
             yaw = radial + math.radians(offset)
-            if not self._poses_clear(q_start, p, radius, held, yaw):
+            if not self._poses_clear(q_start, p, radius, held, yaw, branch):
                 continue
             try:
-                return yaw, self._pick_lines(q_start, p, radius, held, yaw)
+                return yaw, self._pick_lines(q_start, p, radius, held, yaw, branch)
             except (NoPathError, UnreachablePoseError, IkFailedError):
                 continue
         widest = max(GRASP_HEADINGS)
@@ -420,14 +388,21 @@ class Planner:
         ) from blocked
 
     def _poses_clear(
-        self, q_start: FloatArray, p: FloatArray, radius: float, held: TargetSpec, yaw: float
+        self,
+        q_start: FloatArray,
+        p: FloatArray,
+        radius: float,
+        held: TargetSpec,
+        yaw: float,
+        branch: int = 0,
     ) -> bool:
-        """Whether the standoff, grasp, lift and lifted standoff at heading ``yaw`` [rad] have
-        IK solutions that keep clear of the cell (four checks, before the lines are planned)."""
+        """Whether the standoff (its solution ``branch``), grasp, lift and lifted standoff at
+        heading ``yaw`` [rad] have IK solutions that keep clear of the cell (four checks,
+        before the lines are planned)."""
         assert self.checker is not None
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(p, radius, yaw)
         try:
-            q = [self.solve(T_standoff, q_start, "standoff")]
+            q = [self._standoff(T_standoff, q_start, branch)]
             for T in (T_grasp, T_lift, T_back):
                 q.append(self.solve(T, q[-1], "grasp"))
         except (UnreachablePoseError, IkFailedError):
@@ -474,8 +449,14 @@ class Planner:
         target: TargetSpec,
         drop_spots: npt.ArrayLike,
         placed: int = 0,
+        usable: Sequence[int] | None = None,
+        dropped: Sequence[int] | None = None,
     ) -> CyclePlan:
         """Plan the whole cycle for a target before the arm moves (see the module doc).
+
+        The pick starts from the standoff's IK solution nearest ``q_start``; when the cycle
+        cannot be planned from it, from each other branch in turn (:meth:`branches`), and the
+        first that gives a whole cycle is used.
 
         Args:
             q_start: Arm joint state at the start [rad].
@@ -483,19 +464,34 @@ class Planner:
             target: The target's size (radius and length; the held target is checked with it).
             drop_spots: The cell's drop spots, shape (n, 2): (x, y) [m].
             placed: Targets put in play since the bin was last emptied, this one not counted:
-                it picks the drop spot (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+                it picks the drop spot (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
+            usable: The drop spots to carry to (0-based; default: all); see :meth:`plan_place`.
+            dropped: Cylinders carried to each drop spot since the bin was emptied (see
+                :func:`~kr210_sim.plan.cycle.drop_spot_order`), or None.
 
         Raises:
             UnreachablePoseError: When a pose has no IK solution inside the limits.
             NoPathError: When a move collides with the cell and no detour is clear.
             IkFailedError: When the user's IK gives an unusable answer.
             PlanningError: When a trajectory breaks a limit.
+            (What stops the cycle from the nearest branch, when every branch fails.)
         """
-        t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
+        t0, c0 = time.perf_counter(), time.process_time()
         r, length = target.radius, target.length
-        g = self.plan_grasp(q_start, target_position, r, length)
+        first: UnreachablePoseError | PlanningError | None = None
+        for branch in itertools.count():  # the user's IK gives one: no other branch is tried
+            try:
+                g = self.plan_grasp(q_start, target_position, r, length, branch)
+                place = self.plan_place(
+                    g.retreat.q_end, target, drop_spots, placed, usable, dropped
+                )
+                break
+            except (UnreachablePoseError, PlanningError) as exc:
+                first = first or exc
+                user = self.user_ik is not None
+                if user or branch + 1 >= self._n_branches(target_position, r, q_start):
+                    raise first from None
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r, g.yaw)
-        place = self.plan_place(g.retreat.q_end, target, drop_spots, placed)
         steps = (
             Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
             Step("approach", g.approach_lin, pose="grasp", T=T_grasp),
@@ -508,11 +504,18 @@ class Planner:
             steps,
             place.drop_spot,
             place.drop_xy,
-            self.detours - detours0,
+            sum(s.move.planner == "ompl" for s in steps if s.move is not None),
             time.perf_counter() - t0,
             time.process_time() - c0,
             math.remainder(g.yaw - radial_yaw(target_position), 2 * math.pi),
         )
+
+    def _n_branches(self, target_position: npt.ArrayLike, radius: float, q_ref: FloatArray) -> int:
+        """IK branches of the radial standoff (0 when it is out of reach)."""
+        try:
+            return len(self.branches(self.grasp_poses(target_position, radius)[0], q_ref, ""))
+        except UnreachablePoseError:
+            return 0
 
     def plan_place(
         self,
@@ -520,25 +523,54 @@ class Planner:
         target: TargetSpec,
         drop_spots: npt.ArrayLike,
         placed: int = 0,
+        usable: Sequence[int] | None = None,
+        dropped: Sequence[int] | None = None,
     ) -> CyclePlan:
-        """Plan the place part of a cycle, the target held at ``q_start`` [rad]: carry to the
+        """Plan the place part of a cycle, the target held at ``q_start`` [rad]: carry to a
         drop spot, release, return to the ready pose (:meth:`plan_cycle` ends with these steps;
         ``check`` plans each drop spot with them).
+
+        The drop spot is the one in turn among ``usable``; when its place cannot be planned
+        (the drop pose out of reach, the carry or the return blocked), the next usable one in
+        turn, and so on (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
 
         Args:
             q_start: Arm joint state at the start, holding the target [rad].
             target: The target's size.
             drop_spots: The cell's drop spots, shape (n, 2): (x, y) [m].
-            placed: Picks the drop spot (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+            placed: Picks the drop spot in turn.
+            usable: The drop spots to carry to (0-based, in the cell's order; default: all):
+                those a dropped cylinder reaches the bin's floor from
+                (:func:`~kr210_sim.plan.landing.usable_drop_spots`).
+            dropped: Cylinders carried to each drop spot since the bin was emptied: the least
+                used are tried first (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
-                :meth:`plan_cycle`.
+                :meth:`plan_cycle`, for the drop spot in turn, when no usable one can be planned.
         """
-        t0, c0, detours0 = time.perf_counter(), time.process_time(), self.detours
-        r = target.radius
         spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
-        spot = drop_spot_index(placed, len(spots))
+        all_spots = range(len(spots))
+        order = drop_spot_order(placed, all_spots if usable is None else usable, dropped)
+        if not order:
+            raise PlanningError("no drop spot to carry the target to")
+        first: UnreachablePoseError | PlanningError | None = None
+        for spot in order:
+            try:
+                return self._place_at(q_start, target, spots, spot)
+            except IkFailedError:  # the user's IK is judged on the spot in turn
+                raise
+            except (UnreachablePoseError, PlanningError) as exc:
+                first = first or exc
+        assert first is not None
+        raise first
+
+    def _place_at(
+        self, q_start: FloatArray, target: TargetSpec, spots: FloatArray, spot: int
+    ) -> CyclePlan:
+        """:meth:`plan_place` to drop spot ``spot`` (0-based)."""
+        t0, c0 = time.perf_counter(), time.process_time()
+        r = target.radius
         drop = spots[spot]
         carry = self.plan_carry(q_start, drop, r, target.length)
         back = self.plan_return(carry.q_end)
@@ -551,7 +583,7 @@ class Planner:
             steps,
             spot,
             (float(drop[0]), float(drop[1])),
-            self.detours - detours0,
+            sum(m.planner == "ompl" for m in (carry, back)),
             time.perf_counter() - t0,
             time.process_time() - c0,
         )

@@ -19,9 +19,10 @@ import numpy.typing as npt
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
-from kr210_sim.errors import ConfigError, PlanningError, UnreachablePoseError
+from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step
+from kr210_sim.plan.landing import drop_heights, landing_blockers, usable_drop_spots
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
@@ -168,6 +169,15 @@ class Runner:
                 f"{self.layout.name!r}, got {config.slot}"
             )
         self.cell = Cell(self.model)
+        #: What stops a cylinder dropped at each drop spot above the bin's floor ("" where
+        #: nothing does, :func:`~kr210_sim.plan.landing.landing_blockers`).
+        self.landing = landing_blockers(self.model, self.layout, self.cell.handles)
+        #: The drop spots cylinders are carried to (0-based): those that reach the floor, or
+        #: all when none does (``run`` refuses such a cell before it starts).
+        self.drop_spots = usable_drop_spots(self.landing) or tuple(range(len(self.landing)))
+        #: Cylinders released over each drop spot since the bin was last emptied: the least
+        #: used spots are carried to first (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
+        self.dropped = [0] * len(self.landing)
         if checker is None:
             checker = CollisionChecker(self.model, Kinematics(self.robot))
         self.planner = Planner(self.robot, config.motion, ik, checker, config.seed)
@@ -201,8 +211,9 @@ class Runner:
         self, position: FloatArray, spec: TargetSpec, q_start: FloatArray | None = None
     ) -> CyclePlan:
         """The whole cycle for the target in play, observed at ``position`` [m]: from
-        ``q_start`` [rad] (default: where the arm is commanded now) to the next drop spot in
-        turn (:func:`~kr210_sim.plan.cycle.drop_spot_index`).
+        ``q_start`` [rad] (default: where the arm is commanded now) to the next of
+        :attr:`drop_spots` in turn whose place can be planned
+        (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
@@ -214,7 +225,43 @@ class Runner:
             spec,
             self.layout.drop_spots,
             placed=len(self.targets.in_play) - 1,
+            usable=self.drop_spots_with_room(spec.length),
+            dropped=self.dropped,
         )
+
+    def drop_spots_with_room(self, length: float) -> tuple[int, ...]:
+        """The :attr:`drop_spots` where a cylinder ``length`` [m] long, dropped now, would
+        come to rest with its centre below the rim, standing on what lies there already
+        (:func:`~kr210_sim.plan.landing.drop_heights`): a cylinder dropped on a tower of them
+        would not count."""
+        if len(self.targets.in_play) <= 1:  # nothing dropped since the bin was emptied
+            return self.drop_spots
+        h = self.cell.handles
+        heights = drop_heights(self.model, self.cell.data, self.layout, h)
+        rim = self.layout.bin.rim
+        return tuple(s for s in self.drop_spots if heights[s] + length / 2.0 < rim)
+
+    def _plan_making_room(self, index: int, k: int, spec: TargetSpec) -> CyclePlan:
+        """:meth:`plan_cycle` for target ``k``; when it cannot be planned while some drop
+        spots have no room, the bin is emptied first (an event shown before the arm moves;
+        target ``k`` stays in its slot) and the cycle planned again: the spots the carry
+        reaches may be the full ones.
+
+        Raises:
+            UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
+                :meth:`plan_cycle`.
+        """
+        try:
+            return self.plan_cycle(self.observe_target(k), spec)
+        except IkFailedError:  # the user's IK is judged as it answered
+            raise
+        except (UnreachablePoseError, PlanningError):
+            if len(self.drop_spots_with_room(spec.length)) == len(self.drop_spots):
+                raise
+        why = "no drop spot with room for another cylinder could be reached"
+        self._show(self.targets.restock(index, keep=k, why=why))
+        self.dropped = [0] * len(self.dropped)
+        return self.plan_cycle(self.observe_target(k), spec)
 
     @property
     def events(self) -> list[Event]:
@@ -226,6 +273,7 @@ class Runner:
         the bin is emptied first: an event, shown for :data:`EVENT_SHOW` s of simulated time."""
         if not self.targets.spare:
             self._show(self.targets.restock(int(self.status["cycle"])))  # type: ignore[call-overload]
+            self.dropped = [0] * len(self.dropped)
         return self.targets.spawn(sample.position, sample.yaw, sample.spec)
 
     def _show(self, event: Event) -> None:
@@ -332,7 +380,9 @@ class Runner:
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
                 # The whole cycle is planned (and collision-checked) before the arm moves.
-                plan = self.plan_cycle(self.observe_target(k), sample.spec)
+                shown = cell.time
+                plan = self._plan_making_room(index, k, sample.spec)
+                t_start += cell.time - shown  # an event shown meanwhile is not the arm's time
                 self.plan = plan
                 planning += plan.wall_time
                 planning_cpu += plan.cpu_time
@@ -381,6 +431,8 @@ class Runner:
                     log.warning("cycle %d: cannot return to ready: %s", index, back_exc)
             if confirmed and not released:  # do not start the next cycle holding this target
                 cell.open_gripper()
+        if released and self.plan is not None:
+            self.dropped[self.plan.drop_spot] += 1
         cycle_time = cell.time - t_start
         self.status["phase"] = "settle"
         rest = RestCounter(self.model.opt.timestep)

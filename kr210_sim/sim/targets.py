@@ -75,19 +75,27 @@ class TargetPool:
         d.qpos[a + 3 : a + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
         d.qvel[dof : dof + 6] = 0.0
 
-    def restock(self, before_cycle: int) -> Event:
-        """Empty the bin and pick up every cylinder in play: all become spares again, parked."""
-        moved = tuple(self.in_play)
-        in_bin_n = self.in_bin_count()
+    def restock(self, before_cycle: int, keep: int | None = None, why: str = "") -> Event:
+        """Empty the bin and pick up every cylinder in play: all become spares again, parked.
+
+        Args:
+            before_cycle: The cycle the event comes before.
+            keep: A cylinder in play left where it is, still in play (the one a cycle is about
+                to pick), or None.
+            why: Why the bin is emptied, for the event's detail ("" when no spare is left).
+        """
+        moved = tuple(k for k in self.in_play if k != keep)
+        in_bin_n = sum(in_bin(self.cell.target_pose(k)[0], self.bin) for k in moved)
         for k in moved:
             self._place(k, self.layout.park[k])
         mujoco.mj_forward(self.cell.model, self.cell.data)
         self.spare = sorted(self.spare + list(moved))
-        self.in_play = []
+        self.in_play = [keep] if keep is not None and keep in self.in_play else []
         elsewhere = len(moved) - in_bin_n
         detail = f"the bin was emptied ({in_bin_n} cylinders)" + (
             f" and {elsewhere} cylinders outside it were picked up" if elsewhere else ""
         )
+        detail += f": {why}" if why else ""
         event = Event(EventKind.BIN_EMPTIED, before_cycle, self.cell.time, moved, detail)
         self.events.append(event)
         return event

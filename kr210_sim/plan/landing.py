@@ -1,0 +1,151 @@
+"""Where a dropped cylinder lands: which of a cell's drop spots reach the bin's floor.
+
+A cylinder released above a drop spot falls straight down into the bin. When a part of the cell
+stands in its way above the floor (a beam over the bin, a box in it), it lands on that instead
+and the cycle ends ``missed_bin``, however well it was carried. :func:`landing_blockers` says
+so for every drop spot, from rays cast straight down against the cell's colliders over the
+cylinder's whole footprint and a margin round it; :func:`usable_drop_spots` keeps the others.
+The runner sends cylinders only to usable spots (:class:`~kr210_sim.sim.runner.Runner`),
+``check`` refuses the rest, and ``run`` refuses a cell with none.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.handles import CellHandles
+from kr210_sim.cell.layout import CellLayout
+
+import mujoco  # isort: skip
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Clearance kept round a falling cylinder's rim [m]: what stands within it stops the cylinder
+#: or tips it over the wall (it sways as the fingers open).
+LANDING_MARGIN = 0.02
+#: The rays' rings round the drop spot, as (rays, radius over the cylinder's radius, margins):
+#: half the radius, the rim, the rim plus :data:`LANDING_MARGIN` (and one ray at the centre);
+#: neighbouring rays are about 2 cm apart for a 0.05 m cylinder.
+RINGS = ((8, 0.5, 0), (16, 1.0, 0), (24, 1.0, 1))
+#: The geom groups rays are cast against: all but the drawn meshes' (group 2, which collide
+#: with nothing and cost the rays four fifths of their time); they stop at whatever a falling
+#: cylinder would collide with.
+_GROUPS = np.array([1, 1, 0, 1, 1, 1], dtype=np.uint8)
+
+
+def _footprint(radius: float) -> list[tuple[float, float]]:
+    """Ray offsets [m] from a drop spot: its centre and the rings of :data:`RINGS`."""
+    points = [(0.0, 0.0)]
+    for n, scale, margins in RINGS:
+        r = scale * radius + margins * LANDING_MARGIN
+        angles = 2.0 * math.pi * np.arange(n) / n
+        points += [(r * math.cos(a), r * math.sin(a)) for a in angles]
+    return points
+
+
+def landing_blockers(
+    model: mujoco.MjModel, layout: CellLayout | None = None, handles: CellHandles | None = None
+) -> tuple[str, ...]:
+    """What stops a cylinder dropped at each drop spot above the bin's floor, in the cell's
+    order: "" when it falls to the floor, else a sentence naming the part and the height.
+
+    Args:
+        model: The cell model; the rays are cast at its first keyframe against every geom a
+            target collides with (the robot's are passed through: the arm is above the
+            cylinder when it lets go; so are the targets, parked away).
+        layout: Its layout (default: read from ``model``).
+        handles: Its handles (default: looked up in ``model``).
+    """
+    layout = layout or CellLayout.from_model(model)
+    h = handles or CellHandles.from_model(model)
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    floor = layout.bin.floor_top
+    out = []
+    for z, geom in _landings(model, data, layout, _stops(model, h, targets=False)):
+        blocker = ""
+        if geom >= 0 and z > floor + 0.005:
+            part = model.geom(geom).name or model.body(int(model.geom_bodyid[geom])).name
+            blocker = (
+                f"a cylinder dropped here lands on {part or 'a geom'} at z = {z:.2f} m, above "
+                f"the bin's floor ({floor:.2f} m)"
+            )
+        out.append(blocker)
+    return tuple(out)
+
+
+def drop_heights(
+    model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, handles: CellHandles
+) -> FloatArray:
+    """Where a cylinder dropped at each drop spot now lands [m]: the height of the highest
+    thing under its footprint, the cylinders lying (or standing) in the bin included, as
+    ``data`` holds them. Shape (number of drop spots,)."""
+    found = _landings(model, data, layout, _stops(model, handles, targets=True))
+    return np.array([z if geom >= 0 else layout.bin.floor_top for z, geom in found])
+
+
+def _stops(model: mujoco.MjModel, h: CellHandles, targets: bool) -> frozenset[int]:
+    """The geoms a falling target collides with, but the robot's (and the targets, unless
+    ``targets``)."""
+    t = int(h.target_geoms[0])
+    collides = (model.geom_contype & model.geom_conaffinity[t]) | (
+        model.geom_contype[t] & model.geom_conaffinity
+    )
+    passed = set(h.robot_geoms) | (set() if targets else {int(g) for g in h.target_geoms})
+    return frozenset(int(g) for g in np.flatnonzero(collides) if int(g) not in passed)
+
+
+def _landings(
+    model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, stops: frozenset[int]
+) -> list[tuple[float, int]]:
+    """Per drop spot, the highest first hit [m] of the rays over a cylinder's footprint
+    (:func:`_footprint`) among ``stops``, and its geom (-1 when no ray meets any)."""
+    top = layout.bin.rim + 1.0
+    down = np.array([0.0, 0.0, -1.0])
+    hit = np.zeros(1, dtype=np.int32)
+    offsets = _footprint(layout.target.radius)
+    out = []
+    for x, y in layout.drop_spots[:, :2]:
+        best = (-math.inf, -1)
+        for dx, dy in offsets:
+            found = _first_hit(model, data, np.array([x + dx, y + dy, top]), down, stops, hit)
+            if found[0] > best[0]:
+                best = found
+        out.append(best)
+    return out
+
+
+def _first_hit(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    start: np.ndarray,
+    down: np.ndarray,
+    stops: frozenset[int],
+    hit: np.ndarray,
+) -> tuple[float, int]:
+    """Height [m] and geom of the first of ``stops`` a ray from ``start`` straight down meets
+    (other geoms passed through), or (-inf, -1) when it meets none."""
+    p = start.copy()
+    for _ in range(64):
+        dist = mujoco.mj_ray(model, data, p, down, _GROUPS, 1, -1, hit)
+        if dist < 0:
+            return -math.inf, -1
+        if int(hit[0]) in stops:
+            return float(p[2] - dist), int(hit[0])
+        p[2] -= dist + 1e-6
+    return -math.inf, -1
+
+
+def usable_drop_spots(blockers: tuple[str, ...]) -> tuple[int, ...]:
+    """The drop spots (0-based, in the cell's order) a dropped cylinder reaches the floor from."""
+    return tuple(i for i, why in enumerate(blockers) if not why)
+
+
+def landing_blocker(model: mujoco.MjModel, layout: CellLayout, spot: int) -> str:
+    """:func:`landing_blockers` of drop spot ``spot`` alone (1-based)."""
+    return landing_blockers(model, layout)[spot - 1]
