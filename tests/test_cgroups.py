@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -44,22 +45,27 @@ def test_a_v2_group_is_made_beside_this_process_s_own(tmp_path: Path) -> None:
     info = f"41 31 0:38 / {root} rw - cgroup2 cgroup2 rw\n"
     place = find_place(info, "0::/user.slice/app.scope\n")
     assert place is not None and place.by == "cgroup v2 pids"
-    assert place.pids == place.cpu == root / "user.slice" and place.version == 2
+    assert place.pids == place.cpu == place.memory == root / "user.slice" and place.version == 2
     (root / "user.slice" / "cgroup.subtree_control").write_text("memory\n")
     assert find_place(info, "0::/user.slice/app.scope\n") is None  # no pids handed down
 
 
 def test_a_v1_group_is_made_below_this_process_s_own(tmp_path: Path) -> None:
-    pids, cpu = tmp_path / "pids", tmp_path / "cpu"
+    pids, cpu, memory = tmp_path / "pids", tmp_path / "cpu", tmp_path / "memory"
     (pids / "docker").mkdir(parents=True)
     cpu.mkdir()
+    (memory / "api" / "7f").mkdir(parents=True)
     info = (
         f"39 31 0:36 / {pids} rw - cgroup cgroup rw,pids\n"
         f"32 31 0:29 / {cpu} rw - cgroup cgroup rw,cpu,cpuacct\n"
+        f"35 31 0:32 / {memory} rw - cgroup cgroup rw,memory\n"
     )
-    place = find_place(info, "8:pids:/docker\n2:cpu,cpuacct:/\n")
+    place = find_place(info, "8:pids:/docker\n2:cpu,cpuacct:/\n4:memory:/api/7f\n")
     assert place is not None and place.by == "cgroup v1 pids"
     assert (place.pids, place.cpu, place.version) == (pids / "docker", cpu, 1)
+    assert place.memory == memory / "api" / "7f"
+    place = find_place(info, "8:pids:/docker\n2:cpu,cpuacct:/\n")
+    assert place is not None and place.memory is None  # not in a memory group: no bound
     assert find_place(info.splitlines()[1], "2:cpu,cpuacct:/\n") is None  # no pids: none
 
 
@@ -95,6 +101,57 @@ def test_a_real_group_bounds_a_fork_loop() -> None:
         assert int(out.stdout) == 7  # 8 with the loop itself
         assert group.refused_forks() >= 1
         assert group.peak() in (None, 8)
+    finally:
+        for pid in group.pids():
+            os.kill(pid, 9)
+        assert group.empty(10.0)
+        group.remove()
+    assert group.folders == []
+
+
+def test_a_real_group_bounds_the_memory_of_its_processes_in_all() -> None:
+    """Three processes of 40 MB each are under any one process's limit, but not under the
+    group's 96 MB: the kernel kills one of them (SIGKILL), and the group says so."""
+    limiter = Limiter(8, None, 96)
+    if not limiter.memory:
+        pytest.skip("no memory control group can be made here")
+    group = limiter.group()
+    assert group is not None and group.memory is not None
+    hog = textwrap.dedent(
+        """
+        import os, time
+        kids = []
+        for _ in range(3):
+            pid = os.fork()
+            if pid == 0:
+                b = b"x" * (40 << 20)
+                time.sleep(30)
+                os._exit(0)
+            kids.append(pid)
+            time.sleep(0.3)
+        killed = 0
+        end = time.monotonic() + 10
+        while kids and not killed and time.monotonic() < end:
+            for k in list(kids):
+                pid, status = os.waitpid(k, os.WNOHANG)
+                if pid:
+                    kids.remove(k)
+                    killed += os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9
+            time.sleep(0.05)
+        for k in kids:
+            os.kill(k, 9)
+            os.waitpid(k, 0)
+        print(killed)
+        """
+    )
+    procs = " ".join(f'"{p}"' for p in group.procs)
+    shell = f'for f in {procs}; do echo $$ > $f; done; exec python3 -c "$0"'
+    try:
+        out = subprocess.run(["/bin/sh", "-c", shell, hog], capture_output=True, timeout=60)
+        assert out.stdout.strip() == b"1", out.stderr
+        assert group.out_of_memory() >= 1
+        peak = group.memory_peak()
+        assert peak is not None and 80 << 20 < peak <= 96 << 20
     finally:
         for pid in group.pids():
             os.kill(pid, 9)

@@ -291,6 +291,65 @@ def test_a_fork_bomb_stops_at_the_bound_and_a_daemon_dies_with_the_jail(
         assert forked < 64  # RLIMIT_NPROC in the jail's own user namespace
 
 
+def test_memory_is_bounded_for_the_whole_jail_not_only_per_process(
+    tmp_path: Path, jail_ok: None
+) -> None:
+    """Six children of 300 MB each: each within its own ``--memory`` (1024 MB of address
+    space), 1.8 GB together, and a scratch file of 100 MB on top. Without a memory group the
+    jail would hold them all (64 processes could hold 64 GB); with it the kernel kills the
+    largest past 1024 MB + the tmpfs sizes, the student's own process answers, and the finding
+    names the bound."""
+    user = _user(
+        tmp_path / "u",
+        "hog",
+        """
+        with open("scratch.bin", "wb") as f:
+            f.write(b"y" * (60 << 20))
+        kids = []
+        for _ in range(6):
+            pid = os.fork()
+            if pid == 0:
+                b = b"x" * (300 << 20)
+                time.sleep(60)
+                os._exit(0)
+            kids.append(pid)
+            time.sleep(0.2)
+        end, killed = time.monotonic() + 20, 0
+        while kids and time.monotonic() < end:
+            for k in list(kids):
+                pid, status = os.waitpid(k, os.WNOHANG)
+                if pid:
+                    kids.remove(k)
+                    killed += os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9
+            if killed and len(kids) <= 4:
+                break
+            time.sleep(0.05)
+        found["killed"] = killed
+        for k in kids:
+            os.kill(k, signal.SIGKILL)
+            os.waitpid(k, 0)
+        """,
+    )
+    box, jail = _jailed(user, tmp_path)
+    with box:
+        _answers(box)  # the student's own process lives on
+    got = _found(box)
+    described = jail.describe()["memory"]
+    if not jail.limiter.memory:
+        assert described == "not bounded in all: each process's address space is limited"
+        pytest.skip("no memory control group can be made here")
+    assert described == "1,344 MB for all its processes and files (cgroup v1 memory, no swap)" or (
+        described == "1,344 MB for all its processes and files (cgroup v2 memory, no swap)"
+    )
+    killed = got["killed"]
+    assert isinstance(killed, int) and killed >= 2  # 6 x 300 MB: at most 4 fit in 1,344 MB
+    assert jail.oom_kills >= killed
+    assert jail.memory_peak is not None and 1000 << 20 < jail.memory_peak <= 1344 << 20
+    assert "killed out of memory at the bound of 1,344 MB for the whole jail (cgroup" in (
+        " / ".join(jail.findings())
+    )
+
+
 def test_it_can_kill_nothing_outside(tmp_path: Path, jail_ok: None) -> None:
     user = _user(
         tmp_path / "u",

@@ -3,12 +3,13 @@
 Each member attacks at import (some again at its first call) and then answers with the package's
 own IK, so its verdict is ``pass`` unless the attack got through: a sibling's submission and a
 file beside the class read; a listener on the host's loopback (started here) reached; a fork
-bomb; a ``setsid`` daemon that tries to write beside the report later; writes to a sibling, the
-class folder, the installed package and the report folder; the grader and its own parent
-killed; threads on every core; 30 MB of output; and a frame on its answer pipe that claims 2 GB
-and never comes. Two members of the ordinary test class sit beside them. Checked from outside:
-nothing was read, reached, written or killed, nothing is left running, each verdict says what the
-jail stopped where the kernel counts it, and the ordinary members keep their verdicts.
+bomb; six forks of 300 MB each (within ``--memory`` each, not together); a ``setsid`` daemon
+that tries to write beside the report later; writes to a sibling, the class folder, the
+installed package and the report folder; the grader and its own parent killed; threads on every
+core; 30 MB of output; and a frame on its answer pipe that claims 2 GB and never comes. Two
+members of the ordinary test class sit beside them. Checked from outside: nothing was read,
+reached, written or killed, nothing is left running, each verdict says what the jail stopped
+where the kernel counts it, and the ordinary members keep their verdicts.
 """
 
 from __future__ import annotations
@@ -116,6 +117,28 @@ def _members(klass: Path, out: Path, port: int, marker: str) -> dict[str, str]:
                     except OSError:
                         pass
             kill_all()
+            """,
+        "hog": """
+            import os, time
+            kids = []
+            for _ in range(6):  # 300 MB each, within --memory each, 1.8 GB together
+                pid = os.fork()
+                if pid == 0:
+                    b = b"x" * (300 << 20)
+                    time.sleep(600)
+                    os._exit(0)
+                kids.append(pid)
+                time.sleep(0.2)
+            end = time.monotonic() + 20
+            while len(kids) > 4 and time.monotonic() < end:
+                for k in list(kids):
+                    if os.waitpid(k, os.WNOHANG)[0]:
+                        kids.remove(k)
+                time.sleep(0.05)
+            print("left", len(kids))
+            for k in kids:
+                os.kill(k, 9)
+                os.waitpid(k, 0)
             """,
         "threads": """
             import hashlib, os, threading
@@ -237,6 +260,14 @@ def test_a_hostile_class_is_graded_in_one_call_and_every_attack_is_stopped(
         assert "still running when its IK process was ended" in bomb
     assert "1 process of its own still running" in by_name["daemon"]["detail"]
     assert "network connections and" in by_name["net"]["detail"]
+    if jail.limiter.memory:  # the memory of its processes in all
+        assert (
+            "killed out of memory at the bound of 1,344 MB for the whole jail"
+            in (by_name["hog"]["detail"])
+        )
+        assert by_name["hog"]["jail"]["memory"] == jail.describe()["memory"]
+        assert 1000 < by_name["hog"]["jail"]["memory_peak_mb"] <= 1344
+        assert by_name["bob"]["jail"]["memory_peak_mb"] < 400  # an ordinary student
     if jail.limiter.cpu:  # held to one core (how often it was held back depends on the load)
         assert by_name["threads"]["jail"]["cpu"] == jail.describe()["cpu"]
         assert jail.describe()["cpu"].startswith("1 core (cgroup v")

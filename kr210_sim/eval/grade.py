@@ -422,7 +422,7 @@ def _confinement(settings: GradeSettings) -> dict[str, Any]:
         JailUnavailable: No jail can be made here.
     """
     if settings.jail:
-        return Jail().describe()
+        return Jail(memory_mb=settings.memory_mb).describe()
     sys.stderr.write(unjailed_warning("the students'"))
     return unjailed()
 

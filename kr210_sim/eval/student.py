@@ -324,7 +324,7 @@ def student_sandbox(job: StudentJob) -> IkSandbox:
     Raises:
         JailUnavailable: ``job.jail`` on a machine where no jail can be made.
     """
-    confinement = Jail() if job.jail else Unconfined()
+    confinement = Jail(memory_mb=job.memory_mb) if job.jail else Unconfined()
     limits = Limits(
         call_timeout=job.ik_timeout,
         memory_mb=job.memory_mb,
@@ -468,6 +468,8 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     record["jail"] = {**sandbox.confinement.describe(), "stopped": stopped_by_jail}
     if isinstance(sandbox.confinement, Jail):
         record["jail"]["cpu_s"] = round(sandbox.confinement.cpu_s, 3)
+        if (peak := sandbox.confinement.memory_peak) is not None:
+            record["jail"]["memory_peak_mb"] = round(peak / (1 << 20), 1)
     if stopped_by_jail:
         record["detail"] += f"; the jail stopped: {'; '.join(stopped_by_jail)}"
     record["wall_time_s"]["student"] = clock.used

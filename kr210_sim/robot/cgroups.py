@@ -1,12 +1,15 @@
-"""Control groups for a jail: a bound on its processes (and its CPU) that the kernel keeps.
+"""Control groups for a jail: bounds on its processes, CPU and memory that the kernel keeps.
 
 A :class:`Limiter` looks once for a place where this process may make control groups: cgroup v2
 with the ``pids`` controller (a sibling of this process's own group, as a desktop's systemd
 delegates them), else the cgroup v1 ``pids`` hierarchy (a child of this process's group, as in a
 container run as root). Each jailed process tree gets a :class:`Group` of its own there:
-``pids.max`` processes at most (a fork past it fails with ``EAGAIN``), and one core's worth of
-CPU where the ``cpu`` controller is at hand too. The group is read from outside the jail at the
-end (forks refused, the most processes at once, CPU throttling) and removed.
+``pids.max`` processes at most (a fork past it fails with ``EAGAIN``), one core's worth of
+CPU where the ``cpu`` controller is at hand too, and a bound on the memory of all its processes
+and the files of its tmpfs together where the ``memory`` controller is (past it the kernel
+reclaims, then kills the group's largest process; no swap). The group is read from outside the
+jail at the end (forks refused, the most processes at once, CPU throttling, memory peak and
+processes killed out of memory) and removed.
 
 Where there is no such place, :attr:`Limiter.by` says so and the jail falls back on
 ``RLIMIT_NPROC``, set inside (it counts per user in the jail's own user namespace, but the kernel
@@ -113,12 +116,15 @@ class Place:
         cpu: The folder the ``cpu`` group is made in (v1: another hierarchy; v2: ``pids``'s),
             or None: no CPU quota.
         version: 1 or 2.
+        memory: The folder the ``memory`` group is made in, or None: no bound on the memory of
+            the group in all.
     """
 
     by: str
     pids: Path
     cpu: Path | None
     version: int
+    memory: Path | None = None
 
 
 def find_place(mountinfo: str, cgroup: str) -> Place | None:
@@ -135,7 +141,8 @@ def find_place(mountinfo: str, cgroup: str) -> Place | None:
         parent = here if here == m.point else here.parent  # v2: no process in a parent group
         have = _controllers(parent)
         if "pids" in have and _writable(parent):
-            return Place("cgroup v2 pids", parent, parent if "cpu" in have else None, 2)
+            cpu = parent if "cpu" in have else None
+            return Place("cgroup v2 pids", parent, cpu, 2, parent if "memory" in have else None)
     v1: dict[str, Path] = {}
     for m in hierarchies:
         if m.version != 1:
@@ -144,11 +151,11 @@ def find_place(mountinfo: str, cgroup: str) -> Place | None:
         here = None if path is None else _inside(m, path)
         if here is None:
             continue
-        for name in ("pids", "cpu"):
+        for name in ("pids", "cpu", "memory"):
             if name in m.options and name not in v1 and _writable(here):
                 v1[name] = here
     if "pids" in v1:
-        return Place("cgroup v1 pids", v1["pids"], v1.get("cpu"), 1)
+        return Place("cgroup v1 pids", v1["pids"], v1.get("cpu"), 1, v1.get("memory"))
     return None
 
 
@@ -183,9 +190,13 @@ class Group:
         place: Where to make them.
         processes: ``pids.max``.
         cores: CPU quota in cores (with a ``cpu`` place), or None for none.
+        memory_mb: Memory of the group in all (with a ``memory`` place) [MB], or None for no
+            bound.
     """
 
-    def __init__(self, place: Place, processes: int, cores: float | None) -> None:
+    def __init__(
+        self, place: Place, processes: int, cores: float | None, memory_mb: int | None = None
+    ) -> None:
         self.place = place
         name = f"{PREFIX}{os.getpid()}-{next(_COUNTER)}"
         self.folders: list[Path] = []
@@ -207,9 +218,27 @@ class Group:
                     (cpu / "cpu.cfs_period_us").write_text(f"{CPU_PERIOD_US}\n")
                     (cpu / "cpu.cfs_quota_us").write_text(f"{quota}\n")
                 self.cpu = cpu
+            self.memory: Path | None = None
+            if place.memory is not None and memory_mb is not None:
+                self.memory = self._bound_memory(place.memory / name, memory_mb << 20)
         except OSError:
             self.remove()
             raise
+
+    def _bound_memory(self, folder: Path, limit: int) -> Path:
+        """Make ``folder`` a group of at most ``limit`` bytes and no swap."""
+        if folder not in self.folders:
+            folder.mkdir()
+            self.folders.append(folder)
+        if self.place.version == 2:
+            (folder / "memory.max").write_text(f"{limit}\n")
+            with contextlib.suppress(OSError):  # (no swap accounting: nothing to bound)
+                (folder / "memory.swap.max").write_text("0\n")
+        else:
+            (folder / "memory.limit_in_bytes").write_text(f"{limit}\n")
+            with contextlib.suppress(OSError):  # memory and swap: as much, so no swap
+                (folder / "memory.memsw.limit_in_bytes").write_text(f"{limit}\n")
+        return folder
 
     @property
     def procs(self) -> list[Path]:
@@ -258,6 +287,23 @@ class Group:
             return stat.get("nr_throttled", 0), stat["throttled_usec"] / 1e6
         return stat.get("nr_throttled", 0), stat.get("throttled_time", 0) / 1e9
 
+    def memory_peak(self) -> int | None:
+        """The most memory the group held at once [bytes] (None: no memory group, or a kernel
+        with no such file)."""
+        name = "memory.peak" if self.place.version == 2 else "memory.max_usage_in_bytes"
+        if self.memory is None:
+            return None
+        try:
+            return int((self.memory / name).read_text())
+        except (OSError, ValueError):
+            return None
+
+    def out_of_memory(self) -> int:
+        """Processes the kernel killed because the group reached its memory bound (v2
+        ``memory.events``' ``oom_kill``, v1 ``memory.oom_control``'s)."""
+        name = "memory.events" if self.place.version == 2 else "memory.oom_control"
+        return self._read(self.memory, name).get("oom_kill", 0)
+
     def empty(self, within: float) -> bool:
         """Wait up to ``within`` s for the group to hold no process; whether it does."""
         end = time.monotonic() + within
@@ -281,11 +327,13 @@ class Limiter:
     Args:
         processes: ``pids.max`` of each group.
         cores: CPU quota of each group in cores (None: none).
+        memory_mb: Memory of each group in all [MB] (None: no bound).
     """
 
-    def __init__(self, processes: int, cores: float | None) -> None:
+    def __init__(self, processes: int, cores: float | None, memory_mb: int | None = None) -> None:
         self.processes = processes
         self.cores = cores
+        self.memory_mb = memory_mb
         try:
             mountinfo = Path("/proc/self/mountinfo").read_text()
             cgroup = Path("/proc/self/cgroup").read_text()
@@ -293,7 +341,7 @@ class Limiter:
             mountinfo = cgroup = ""
         self.place = find_place(mountinfo, cgroup)
         if self.place is not None:
-            for folder in {self.place.pids, self.place.cpu}:
+            for folder in {self.place.pids, self.place.cpu, self.place.memory}:
                 if folder is not None:
                     sweep(folder)
 
@@ -307,11 +355,16 @@ class Limiter:
         """Whether each group holds its processes to :attr:`cores` of CPU."""
         return self.place is not None and self.place.cpu is not None and self.cores is not None
 
+    @property
+    def memory(self) -> bool:
+        """Whether each group bounds the memory of its processes in all to :attr:`memory_mb`."""
+        return self.place is not None and self.place.memory is not None and bool(self.memory_mb)
+
     def group(self) -> Group | None:
         """A new group, or None where none can be made (any more)."""
         if self.place is None:
             return None
         try:
-            return Group(self.place, self.processes, self.cores)
+            return Group(self.place, self.processes, self.cores, self.memory_mb)
         except OSError:
             return None

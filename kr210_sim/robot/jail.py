@@ -24,8 +24,10 @@ What the process gets (:meth:`Jail.command` builds bubblewrap's command line):
   them, stay outside);
 * at most :data:`PROCESS_LIMIT` processes, kept by the control groups' pids controller where
   this process may make groups (:mod:`kr210_sim.robot.cgroups`), with one core's worth of CPU
-  where the cpu controller is there too; elsewhere ``RLIMIT_NPROC``, set inside
-  (:attr:`Jail.process_rlimit`);
+  where the cpu controller is there too, and ``memory_mb`` plus its tmpfs sizes of memory for
+  all its processes and files together where the memory controller is; elsewhere
+  ``RLIMIT_NPROC``, set inside (:attr:`Jail.process_rlimit`), and each process's own
+  ``RLIMIT_AS`` only;
 * it dies with its parent (``--die-with-parent``), and when its process ends the kernel kills
   everything left in its PID namespace: a ``setsid`` daemon too.
 
@@ -54,7 +56,7 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim.errors import ConfigError
-from kr210_sim.robot import seccomp
+from kr210_sim.robot import procfs, seccomp
 from kr210_sim.robot.bwrap import NAMESPACES, Bwrap, find_bwrap
 from kr210_sim.robot.cgroups import Group, Limiter
 from kr210_sim.robot.confine import Launch
@@ -68,6 +70,9 @@ CPU_CORES = 1.0
 SCRATCH_MB = 256
 #: Size of ``/dev/shm`` in the jail (a tmpfs) [MB].
 SHM_MB = 64
+#: Memory of a jail's processes in all where the memory controller is at hand [MB] (its tmpfs
+#: files, up to :data:`SCRATCH_MB` + :data:`SHM_MB`, come on top).
+MEMORY_MB = 1024
 #: The uid and gid inside the jail when the caller is root (else the caller's own).
 INSIDE_UID = 1000
 #: Most files of the scratch folder copied into the jail's scratch when it starts.
@@ -172,77 +177,6 @@ def jail_environment(env: dict[str, str]) -> dict[str, str]:
     return kept
 
 
-def _descendants(root: int) -> list[int]:
-    """The live processes below ``root`` (from ``/proc``: pids as this process sees them;
-    zombies, which have ended, left out)."""
-    children: dict[int, list[int]] = {}
-    for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
-        try:
-            fields = Path(f"/proc/{entry.name}/stat").read_text().rsplit(")", 1)[1].split()
-            state, ppid = fields[0], int(fields[1])
-        except (OSError, ValueError, IndexError):
-            continue
-        if state != "Z":
-            children.setdefault(ppid, []).append(int(entry.name))
-    out, todo = [], list(children.get(root, ()))
-    while todo:
-        pid = todo.pop()
-        out.append(pid)
-        todo.extend(children.get(pid, ()))
-    return out
-
-
-def net_counters(pid: int) -> dict[str, int]:
-    """The network namespace's counters of process ``pid`` that say it tried to reach out:
-    ``tcp`` connections opened (``Tcp: ActiveOpens``) and ``udp`` datagrams sent (IPv4 and
-    IPv6), from ``/proc/PID/net/snmp`` and ``snmp6`` (the kernel's, for that namespace)."""
-    out = {"tcp": 0, "udp": 0}
-    try:
-        lines = Path(f"/proc/{pid}/net/snmp").read_text().splitlines()
-    except OSError:
-        return out
-    for names, values in zip(lines[::2], lines[1::2], strict=False):
-        kind, _, keys = names.partition(":")
-        table = dict(zip(keys.split(), values.partition(":")[2].split(), strict=False))
-        with contextlib.suppress(ValueError):
-            if kind == "Tcp":
-                out["tcp"] += int(table.get("ActiveOpens", 0))
-            elif kind == "Udp":
-                out["udp"] += int(table.get("OutDatagrams", 0))
-    with contextlib.suppress(OSError, ValueError):
-        for line in Path(f"/proc/{pid}/net/snmp6").read_text().splitlines():
-            key, _, value = line.partition(" ")
-            if key == "Udp6OutDatagrams":
-                out["udp"] += int(value.strip())
-    return out
-
-
-def cpu_seconds(pids: list[int]) -> float:
-    """CPU time of processes ``pids`` and of the children each has reaped [s] (``/proc/PID/stat``:
-    utime, stime, cutime, cstime). A jail's processes die with its init and nobody reaps them
-    into this process's ``RUSAGE_CHILDREN``, so :meth:`Jail.end` reads them here first."""
-    tick = os.sysconf("SC_CLK_TCK")
-    total = 0
-    for pid in pids:
-        with contextlib.suppress(OSError, ValueError, IndexError):
-            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-            total += sum(int(v) for v in fields[11:15])
-    return total / tick
-
-
-def _inner_pid(pid: int) -> int | None:
-    """Process ``pid``'s pid in its own PID namespace (the last of its ``NSpid``)."""
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("NSpid:"):
-                return int(line.split()[-1])
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
 @dataclass
 class _Started:
     """What :meth:`Jail.popen` keeps of one jail until :meth:`Jail.end`."""
@@ -259,6 +193,8 @@ class Jail:
         processes: Most processes at once (:data:`PROCESS_LIMIT`).
         cores: CPU quota where the cpu controller is at hand [cores] (None: none).
         scratch_mb: Size of the writable scratch folder [MB].
+        memory_mb: Memory of its processes in all where the memory controller is at hand [MB]
+            (the group's bound adds the tmpfs sizes; None: no bound in all).
         bwrap: The bubblewrap to use (None: :func:`find_bwrap`).
 
     Raises:
@@ -274,12 +210,14 @@ class Jail:
         processes: int = PROCESS_LIMIT,
         cores: float | None = CPU_CORES,
         scratch_mb: int = SCRATCH_MB,
+        memory_mb: int | None = MEMORY_MB,
         bwrap: Bwrap | None = None,
     ) -> None:
         self.bwrap = bwrap or find_bwrap()
         self.processes = processes
         self.scratch_mb = scratch_mb
-        self.limiter = Limiter(processes, cores)
+        total = None if memory_mb is None else memory_mb + scratch_mb + SHM_MB
+        self.limiter = Limiter(processes, cores, total)
         self.uid = os.getuid() or INSIDE_UID
         self.gid = os.getgid() or INSIDE_UID
         self._started: dict[int, _Started] = {}
@@ -287,6 +225,9 @@ class Jail:
         self.refused = 0
         self.peak: int | None = None
         self.left = 0
+        #: Processes the memory bound killed, and the most memory a jail held [bytes].
+        self.oom_kills = 0
+        self.memory_peak: int | None = None
         #: CPU time of the jails ended so far, their processes all [s].
         self.cpu_s = 0.0
 
@@ -328,6 +269,12 @@ class Jail:
             ),
             "processes": {"limit": self.processes, "by": self.processes_by()},
             "cpu": cpu,
+            "memory": (
+                f"{self.limiter.memory_mb:,} MB for all its processes and files "
+                f"({self.limiter.by.replace('pids', 'memory')}, no swap)"
+                if self.limiter.memory and self.limiter.by
+                else "not bounded in all: each process's address space is limited"
+            ),
             "system_calls": (
                 f"{len(seccomp.numbers(arch))} refused with EPERM (seccomp: tracing, keyrings, "
                 "eBPF, perf, userfaultfd, io_uring, mounts, namespaces, modules, clocks, ...)"
@@ -474,16 +421,16 @@ class Jail:
         its control groups. Safe to call twice and on a jail that has ended."""
         started = self._started.pop(proc.pid, None)
         if started is not None and started.init is not None:
-            net = net_counters(started.init)
+            net = procfs.net_counters(started.init)
             if net["tcp"] or net["udp"]:
                 self._note(
                     f"{net['tcp']} network connection{'s' if net['tcp'] != 1 else ''} and "
                     f"{net['udp']} datagram{'s' if net['udp'] != 1 else ''} tried, in a jail with "
                     "no network"
                 )
-            below = _descendants(started.init)
-            self.cpu_s += cpu_seconds([started.init, *below])
-            left = len([p for p in below if _inner_pid(p) != MAIN_PID])
+            below = procfs.descendants(started.init)
+            self.cpu_s += procfs.cpu_seconds([started.init, *below])
+            left = len([p for p in below if procfs.inner_pid(p) != MAIN_PID])
             if left > 0:
                 self.left += left
                 self._note(
@@ -519,6 +466,16 @@ class Jail:
             self._note(
                 f"{refused:,} fork{'s' if refused != 1 else ''} refused at the bound of "
                 f"{self.processes} processes ({self.limiter.by}{at})"
+            )
+        killed, held = group.out_of_memory(), group.memory_peak()
+        if held is not None:
+            self.memory_peak = max(self.memory_peak or 0, held)
+        if killed:
+            self.oom_kills += killed
+            self._note(
+                f"{killed} process{'es' if killed != 1 else ''} killed out of memory at the bound "
+                f"of {self.limiter.memory_mb:,} MB for the whole jail "
+                f"({str(self.limiter.by).replace('pids', 'memory')})"
             )
         count, seconds = group.throttled()
         if seconds >= 0.5:
