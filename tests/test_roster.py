@@ -168,3 +168,41 @@ def test_repositories_of_the_original_exercise_are_students(tmp_path: Path) -> N
     ]
     (alone,) = find_students([str(tmp_path / "class" / "ann")])
     assert alone.name == "ann" and alone.spec == students[0].spec and alone.root == students[0].root
+
+
+def test_a_submission_file_that_leads_out_of_its_folder_is_not_graded(tmp_path: Path) -> None:
+    """Inside a student's folder, a server, an ik.py or a lone .py file that is a symbolic link
+    out of that folder (or sits in a linked folder) is an error student that says where it
+    leads: its jail would not show it the file, and its working folder would be seeded with the
+    files beside what the link leads to. A link that stays inside the folder is graded."""
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    server = "import rospy\nfrom kuka_arm.srv import *\ndef handle_calculate_IK(req):\n    pass\n"
+    (outside / "IK_server.py").write_text(server)
+    (outside / "ik.py").write_text("def solve(T, q):\n    return q\n")
+    klass = tmp_path / "class"
+    (klass / "ann" / "kuka_arm" / "scripts").mkdir(parents=True)
+    (klass / "ann" / "kuka_arm" / "scripts" / "IK_server.py").symlink_to(outside / "IK_server.py")
+    (klass / "ben" / "kuka_arm").mkdir(parents=True)
+    (klass / "ben" / "kuka_arm" / "scripts").symlink_to(outside)
+    (klass / "cid").mkdir()
+    (klass / "cid" / "ik.py").symlink_to(outside / "ik.py")
+    (klass / "dee").mkdir()
+    (klass / "dee" / "mine.py").symlink_to(outside / "ik.py")
+    (klass / "eve" / "src").mkdir(parents=True)
+    (klass / "eve" / "src" / "ik.py").write_text("def solve(T, q):\n    return q\n")
+    (klass / "eve" / "ik.py").symlink_to(klass / "eve" / "src" / "ik.py")  # stays inside
+    students = {s.name: s for s in find_students([str(klass)])}
+    for name, file, to in (
+        ("ann", "kuka_arm/scripts/IK_server.py", "IK_server.py"),
+        ("ben", "kuka_arm/scripts/IK_server.py", "IK_server.py"),
+        ("cid", "ik.py", "ik.py"),
+        ("dee", "mine.py", "ik.py"),
+    ):
+        assert students[name].spec == "" and students[name].problem == (
+            f"{klass / name / file} leads out of its student's folder {klass / name}, to "
+            f"{outside / to} (a symbolic link): not graded (copy the file into the folder)"
+        )
+    assert (
+        students["eve"].spec == f"{klass / 'eve' / 'ik.py'}:solve" and not students["eve"].problem
+    )

@@ -89,20 +89,41 @@ def _dangling(path: Path) -> str:
     return f"{_shown(path)} is a symbolic link to {_shown(to)}, which does not exist"
 
 
+def _leads_out(path: Path, folder: Path) -> str:
+    """Why the submission file ``path`` of the student folder ``folder`` is not graded when it,
+    or a folder on its way, is a symbolic link out of ``folder`` ("" when it is not): its jail
+    shows it only ``folder``, and the files beside what the link leads to would be copied in."""
+    target = path.resolve()
+    if target.is_relative_to(folder.resolve()):
+        return ""
+    return (
+        f"{_shown(path)} leads out of its student's folder {_shown(folder)}, to "
+        f"{_shown(target)} (a symbolic link): not graded (copy the file into the folder)"
+    )
+
+
+def _in_folder(name: str, path: Path, function: str, folder: Path) -> Student:
+    """The student of folder ``folder`` graded by ``path``'s ``function``, or an error student
+    when ``path`` leads out of the folder."""
+    if why := _leads_out(path, folder):
+        return Student(name, "", why)
+    return Student(name, f"{path}:{function}", root=str(folder))
+
+
 def _folder_student(folder: Path) -> Student:
     name = _shown(folder.name)
     module = folder / STUDENT_MODULE
     if module.is_file():
-        return Student(name, f"{module}:{STUDENT_FUNCTION}", root=str(folder))
+        return _in_folder(name, module, STUDENT_FUNCTION, folder)
     if why := _dangling(module):
         return Student(name, "", why)
     server = find_server(folder)
     if server is not None:  # a repository of the original exercise
-        return Student(name, f"{server}:{HANDLER}", root=str(folder))
+        return _in_folder(name, server, HANDLER, folder)
     entries = sorted(p for p in folder.iterdir() if not p.name.startswith((".", "_")))
     files = [p for p in entries if p.suffix == ".py" and p.is_file()]
     if len(files) == 1:
-        return Student(name, f"{files[0]}:{STUDENT_FUNCTION}", root=str(folder))
+        return _in_folder(name, files[0], STUDENT_FUNCTION, folder)
     found = f"{len(files)} .py files" if files else "no .py file"
     if not files:  # say what is there instead, when it looks like a submission
         whys = [why for p in entries if (why := _not_python(p) or _dangling(p))]
