@@ -350,6 +350,43 @@ def test_memory_is_bounded_for_the_whole_jail_not_only_per_process(
     )
 
 
+def test_it_cannot_write_to_the_machine_through_proc(tmp_path: Path, jail_ok: None) -> None:
+    """Run as root, the jail's user is uid 0 outside, and the kernel let it open
+    ``/proc/sys/kernel/core_pattern`` and ``modprobe`` for writing (either makes the machine's
+    root run a program of its choosing). The code here only opens them, never writes; each must
+    be refused, and the kernel's memory and keys read as nothing."""
+    user = _user(
+        tmp_path / "u",
+        "procs",
+        """
+        for path in ("/proc/sys/kernel/core_pattern", "/proc/sys/kernel/modprobe",
+                     "/proc/sys/vm/drop_caches", "/proc/sysrq-trigger", "/proc/sys/fs/file-max"):
+            try:
+                os.close(os.open(path, os.O_WRONLY))  # opened, and closed unwritten
+                found[path] = "opened"
+            except OSError as exc:
+                found[path] = type(exc).__name__
+        for path in ("/proc/kcore", "/proc/keys", "/proc/timer_list"):
+            try:
+                with open(path, "rb") as f:
+                    found[path] = len(f.read(64))
+            except OSError as exc:
+                found[path] = type(exc).__name__
+        """,
+    )
+    box, _ = _jailed(user, tmp_path)
+    with box:
+        _answers(box)
+    got = _found(box)
+    assert got["/proc/sys/kernel/core_pattern"] in ("OSError", "PermissionError")  # EROFS, EACCES
+    for path in ("core_pattern", "modprobe", "drop_caches", "file-max"):  # (a kernel may lack one)
+        key = next(k for k in got if k.endswith(path))
+        assert got[key] in ("OSError", "PermissionError", "FileNotFoundError"), (key, got[key])
+    assert got["/proc/sysrq-trigger"] in ("OSError", "PermissionError", "FileNotFoundError")
+    for path in ("/proc/kcore", "/proc/keys", "/proc/timer_list"):
+        assert got[path] in (0, "FileNotFoundError", "PermissionError"), (path, got[path])
+
+
 def test_it_can_kill_nothing_outside(tmp_path: Path, jail_ok: None) -> None:
     user = _user(
         tmp_path / "u",

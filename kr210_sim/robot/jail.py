@@ -10,6 +10,8 @@ What the process gets (:meth:`Jail.command` builds bubblewrap's command line):
   cannot make user namespaces of its own (``--disable-userns``);
 * a seccomp filter (:mod:`kr210_sim.robot.seccomp`): the system calls an IK never makes, and
   that kernel exploits go through, fail with ``EPERM``;
+* a ``/proc`` of its own PID namespace, with the parts that write to the whole machine
+  (``/proc/sys``, ``sysrq-trigger``, ...) read-only and the kernel's memory and keys hidden;
 * a root of nothing but read-only binds of what Python needs: ``/usr`` and the system's library
   folders, ``/etc/ld.so.cache``, the interpreter's prefixes (its standard library, the
   environment's packages), kr210_sim's own package folder and data folders (not the checkout they
@@ -103,6 +105,13 @@ JAIL_PATH = "/usr/local/bin:/usr/bin:/bin"
 SYSTEM_DIRS = ("/usr", "/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32")
 #: Single system files bound read-only when they exist.
 SYSTEM_FILES = ("/etc/ld.so.cache", "/etc/localtime")
+#: The parts of ``/proc`` that write to the whole machine, bound read-only over the jail's own
+#: ``/proc`` (as container runtimes do): run as root, the jail's user is uid 0 outside, which
+#: the kernel lets open ``/proc/sys/kernel/core_pattern`` and ``modprobe`` for writing, and
+#: either runs a program of the writer's choosing as the machine's root.
+PROC_READ_ONLY = ("/proc/sys", "/proc/sysrq-trigger", "/proc/fs", "/proc/irq", "/proc/bus")
+#: Files of ``/proc`` that show the machine's kernel and timers, hidden (``/dev/null`` bound).
+PROC_MASKED = ("/proc/kcore", "/proc/keys", "/proc/timer_list", "/proc/sched_debug")
 #: The shell line that puts itself in the control groups named before ``--``, then becomes
 #: bubblewrap: so the group holds every process of the jail from its first.
 JOIN = 'while [ "$1" != -- ]; do echo $$ > "$1" || exit 125; shift; done; shift; exec "$@"'
@@ -366,7 +375,13 @@ class Jail:
         for name in SYSTEM_FILES:
             argv += ["--ro-bind-try", name, name]
         size = str(SHM_MB << 20)
-        argv += ["--proc", "/proc", "--dev", "/dev", "--size", size, "--tmpfs", "/dev/shm"]
+        argv += ["--proc", "/proc"]
+        for name in PROC_READ_ONLY:
+            argv += ["--ro-bind-try", name, name]
+        for name in PROC_MASKED:
+            if Path(name).exists():
+                argv += ["--ro-bind", "/dev/null", name]
+        argv += ["--dev", "/dev", "--size", size, "--tmpfs", "/dev/shm"]
         argv += ["--tmpfs", "/tmp"]  # made read-only once the binds below it are in place
         for p in self._binds(launch):
             argv += ["--ro-bind", str(p), str(p)]
