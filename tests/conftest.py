@@ -4,6 +4,7 @@ kr210_sim is imported first, so it picks the GL backend (EGL when there is no di
 test module imports mujoco.
 """
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -12,6 +13,7 @@ import pytest
 
 import kr210_sim  # noqa: F401
 from kr210_sim.cell.toml import PUBLISHED_CELL
+from kr210_sim.robot.bwrap import JailUnavailable, find_bwrap
 
 #: The ready pose of :func:`ready_cell` [deg].
 READY_Q_DEG = (40, -15, 20, 0, -5, 0)
@@ -71,3 +73,15 @@ def _jail_setting_kept(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("KR210_JAIL", value or "1")  # what it was comes back after the test
     if value is None:
         monkeypatch.delenv("KR210_JAIL")
+
+
+@pytest.fixture(scope="session")
+def jail_ok() -> None:
+    """Skip where no jail can be made here, unless ``KR210_REQUIRE_JAIL`` is set (CI sets it):
+    then the test fails with the reason."""
+    try:
+        find_bwrap()
+    except JailUnavailable as exc:
+        if os.environ.get("KR210_REQUIRE_JAIL"):
+            raise
+        pytest.skip(str(exc))

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
-import textwrap
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from memory_hog import hog
 
 from kr210_sim.robot import cgroups
 from kr210_sim.robot.cgroups import Limiter, Mount, find_place, mounts, own_groups
@@ -83,30 +85,41 @@ def test_groups_left_by_a_dead_grader_are_swept(tmp_path: Path) -> None:
     ]
 
 
-def test_a_real_group_bounds_a_fork_loop() -> None:
-    limiter = Limiter(8, 1.0)
-    if limiter.by is None:
-        pytest.skip("no control group can be made here")
+def _in_group(group: cgroups.Group, code: str) -> subprocess.CompletedProcess[bytes]:
+    """Run Python ``code`` in ``group`` (joined from its first process, as the jail joins)."""
+    procs = " ".join(f'"{p}"' for p in group.procs)
+    shell = f'for f in {procs}; do echo $$ > $f; done; exec python3 -c "$0"'
+    return subprocess.run(["/bin/sh", "-c", shell, code], capture_output=True, timeout=60)
+
+
+@contextlib.contextmanager
+def _real_group(limiter: Limiter) -> Iterator[cgroups.Group]:
+    """A group of ``limiter``'s, emptied and removed at the end."""
     group = limiter.group()
     assert group is not None
-    loop = (
-        "import os, time\nn = 0\ntry:\n    while n < 100:\n        if os.fork() == 0:\n"
-        "            os.closerange(0, 3)\n            time.sleep(30)\n            os._exit(0)\n"
-        "        n += 1\nexcept OSError:\n    pass\nprint(n)\n"
-    )
-    procs = " ".join(f'"{p}"' for p in group.procs)
-    shell = f"for f in {procs}; do echo $$ > $f; done; exec python3 -c '{loop}'"
     try:
-        out = subprocess.run(["/bin/sh", "-c", shell], capture_output=True, timeout=60)
-        assert int(out.stdout) == 7  # 8 with the loop itself
-        assert group.refused_forks() >= 1
-        assert group.peak() in (None, 8)
+        yield group
     finally:
         for pid in group.pids():
             os.kill(pid, 9)
         assert group.empty(10.0)
         group.remove()
     assert group.folders == []
+
+
+def test_a_real_group_bounds_a_fork_loop() -> None:
+    limiter = Limiter(8, 1.0)
+    if limiter.by is None:
+        pytest.skip("no control group can be made here")
+    loop = (
+        "import os, time\nn = 0\ntry:\n    while n < 100:\n        if os.fork() == 0:\n"
+        "            os.closerange(0, 3)\n            time.sleep(30)\n            os._exit(0)\n"
+        "        n += 1\nexcept OSError:\n    pass\nprint(n)\n"
+    )
+    with _real_group(limiter) as group:
+        assert int(_in_group(group, loop).stdout) == 7  # 8 with the loop itself
+        assert group.refused_forks() >= 1
+        assert group.peak() in (None, 8)
 
 
 def test_a_real_group_bounds_the_memory_of_its_processes_in_all() -> None:
@@ -115,46 +128,10 @@ def test_a_real_group_bounds_the_memory_of_its_processes_in_all() -> None:
     limiter = Limiter(8, None, 96)
     if not limiter.memory:
         pytest.skip("no memory control group can be made here")
-    group = limiter.group()
-    assert group is not None and group.memory is not None
-    hog = textwrap.dedent(
-        """
-        import os, time
-        kids = []
-        for _ in range(3):
-            pid = os.fork()
-            if pid == 0:
-                b = b"x" * (40 << 20)
-                time.sleep(30)
-                os._exit(0)
-            kids.append(pid)
-            time.sleep(0.3)
-        killed = 0
-        end = time.monotonic() + 10
-        while kids and not killed and time.monotonic() < end:
-            for k in list(kids):
-                pid, status = os.waitpid(k, os.WNOHANG)
-                if pid:
-                    kids.remove(k)
-                    killed += os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9
-            time.sleep(0.05)
-        for k in kids:
-            os.kill(k, 9)
-            os.waitpid(k, 0)
-        print(killed)
-        """
-    )
-    procs = " ".join(f'"{p}"' for p in group.procs)
-    shell = f'for f in {procs}; do echo $$ > $f; done; exec python3 -c "$0"'
-    try:
-        out = subprocess.run(["/bin/sh", "-c", shell, hog], capture_output=True, timeout=60)
+    with _real_group(limiter) as group:
+        assert group.memory is not None
+        out = _in_group(group, hog(3, 40, 2, within_s=10.0) + "print(killed)\n")
         assert out.stdout.strip() == b"1", out.stderr
         assert group.out_of_memory() >= 1
         peak = group.memory_peak()
         assert peak is not None and 80 << 20 < peak <= 96 << 20
-    finally:
-        for pid in group.pids():
-            os.kill(pid, 9)
-        assert group.empty(10.0)
-        group.remove()
-    assert group.folders == []
