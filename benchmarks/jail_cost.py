@@ -76,6 +76,7 @@ def start_up(starts: int) -> None:
     print(f"end, unjailed / jailed            {end_out:6.3f} s / {end_in:.3f} s")
     d = jail.describe()
     print(f"jail: bwrap {d['bwrap']}; processes: {d['processes']}; cpu: {d['cpu']}")
+    print(f"      memory: {d['memory']}")
 
 
 def per_call(calls: int) -> None:
