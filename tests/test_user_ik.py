@@ -111,6 +111,8 @@ def test_a_syntax_error_names_the_line(tmp_path: Path) -> None:
         ("kr210_sim.robot.kinematics:TWO_PI", "is a float, not a function"),
         ("kr210_sim.robot.kinematics", "expected package.module:function"),
         (":solve", "expected package.module:function"),
+        ("/no/such/ik.py", "--ik '/no/such/ik.py': no such file or folder /no/such/ik.py"),
+        ("no_such_ik.py", "--ik 'no_such_ik.py': no such file or folder no_such_ik.py"),
     ],
 )
 def test_bad_module_specs(spec: str, message: str) -> None:

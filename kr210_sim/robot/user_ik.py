@@ -147,6 +147,8 @@ def split_spec(spec: str) -> tuple[str, str]:
         IkSpecError: When the SPEC has no ``:function`` part or an empty side.
     """
     where, sep, name = spec.rpartition(":")
+    if not sep and _is_path(spec) and not Path(spec).exists():
+        raise IkSpecError(f"--ik {spec!r}: no such file or folder {spec}")
     if not sep or not where or not name:
         raise IkSpecError(
             f"--ik {spec!r}: expected package.module:function, path/to/file.py:function, or "
