@@ -11,12 +11,14 @@ settings: the jerk limit of the joint moves with the gripper empty (to the stand
 ready pose) at 12, what every move had before, and at the default (24); the moves into, with and
 out of the grip at 12 in both (``MotionConfig.grip_jerk_scale``).
 
-Run: python benchmarks/grip_load.py [--quick]   (--quick: seeds 0-1)
+Run: python benchmarks/grip_load.py [--quick] [--seeds N] [--cycles N] [--default-only]
+(--quick: seeds 0-1; --default-only: the default setting alone). The MuJoCo version is printed
+first: the contacts of the lips depend on it (4.0.1 changed cylinder-edge multicontact).
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 
 import mujoco
 import numpy as np
@@ -69,17 +71,27 @@ def measure(motion: MotionConfig, seed: int, cycles: int = 10) -> dict[str, list
     return out
 
 
-def main() -> None:
-    seeds = range(2) if "--quick" in sys.argv else range(10)
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="seeds 0-1 (as --seeds 2)")
+    parser.add_argument("--seeds", type=int, default=10, help="runs, seeds 0..N-1 (default 10)")
+    parser.add_argument("--cycles", type=int, default=10, help="cycles a run (default 10)")
+    parser.add_argument("--default-only", action="store_true", help="the default setting only")
+    args = parser.parse_args(argv)
+    if args.seeds < 1 or args.cycles < 1:
+        parser.error("--seeds and --cycles must be at least 1")
+    seeds = range(2) if args.quick else range(args.seeds)
+    settings = SETTINGS[-1:] if args.default_only else SETTINGS
+    print(f"MuJoCo {mujoco.__version__}, seeds 0-{seeds[-1]}, {args.cycles} cycles each")
     print(
         f"{'setting':<18} {'ok':>7} {'cycle s':>7} {'/bound':>6} "
         f"{'creep mm mean/p95/max':>21} {'lip in carry':>12} {'lip N mean/p95/max':>18} "
         f"{'track deg':>9}"
     )
-    for name, motion in SETTINGS:
+    for name, motion in settings:
         f: dict[str, list[float]] = {}
         for seed in seeds:
-            for k, v in measure(motion, seed).items():
+            for k, v in measure(motion, seed, args.cycles).items():
                 f.setdefault(k, []).extend(v)
         creep, force = np.array(f["creep"]), np.array(f["force"])
         print(
@@ -90,7 +102,8 @@ def main() -> None:
             f"{force.mean():>6.1f} /{np.percentile(force, 95):>5.1f} /{force.max():>5.1f} "
             f"{np.max(f['track']):>9.3f}"
         )
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
