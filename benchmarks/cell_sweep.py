@@ -1,7 +1,9 @@
 """Does ``check`` agree with ``run``? The example cells and cells drawn at random, slot by slot.
 
 For each cell (scenes/cells/*.toml, then ``--cells`` drawn by tests/random_cells.py from seeds
-``--seed`` onwards: shelf, bin, obstacles and ready poses of every kind), ``check`` is asked
+``--seed`` onwards: shelf, bin, obstacles and ready poses of every kind; ``--kind edge``: low and
+high shelves, obstacles in front of the shelf, bins near the reach, ready poses facing away with
+joint 1 near +-180 deg), ``check`` is asked
 which slots it serves and every slot is run ``--rounds`` times in one run (slots in turn, so
 the carries go to several drop spots). A slot agrees when check serves it and each of its
 cycles succeeds with no robot-cell contact, or check refuses it and none does. Prints one line
@@ -10,6 +12,7 @@ with check's verdict and run's outcomes and details), and the cells the file's v
 refused on the way.
 
 Run: python benchmarks/cell_sweep.py [--cells 60] [--seed 1000] [--workers 2] [--rounds 2]
+[--kind plain|edge] [--no-examples]
 (60 cells: about 10 min on two free cores; the seeds from 1000 on were not looked at while the
 planner's drop spot and branch choices were made, 0-59 were)
 """
@@ -24,15 +27,15 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from random_cells import CellAgreement, RandomCell, agreement, random_cell
+from random_cells import KINDS, CellAgreement, RandomCell, agreement, random_cell
 
 from kr210_sim.cell.toml import PUBLISHED_CELL
 
 
-def _one(job: tuple[str, int, str, int]) -> tuple[str, CellAgreement | str]:
-    name, seed, text, rounds = job
+def _one(job: tuple[str, int, str, int, str]) -> tuple[str, CellAgreement | str]:
+    name, seed, text, rounds, kind = job
     try:
-        cell = random_cell(seed) if not text else RandomCell(seed, text)
+        cell = random_cell(seed, kind) if not text else RandomCell(seed, text)
     except Exception as exc:  # reported, not raised
         return name, f"no cell: {exc}"
     try:
@@ -47,14 +50,16 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1000, help="first seed (1000)")
     ap.add_argument("--workers", type=int, default=2, help="processes (2)")
     ap.add_argument("--rounds", type=int, default=2, help="cycles per slot (2)")
+    ap.add_argument("--kind", choices=sorted(KINDS), default="plain", help="draw (plain)")
     ap.add_argument("--no-examples", action="store_true", help="random cells only")
     args = ap.parse_args()
-    jobs: list[tuple[str, int, str, int]] = []
+    jobs: list[tuple[str, int, str, int, str]] = []
     if not args.no_examples:
         for path in sorted(PUBLISHED_CELL.parent.glob("*.toml")):
-            jobs.append((path.stem, 0, path.read_text(), args.rounds))
+            jobs.append((path.stem, 0, path.read_text(), args.rounds, ""))
+    prefix = "random" if args.kind == "plain" else args.kind
     for seed in range(args.seed, args.seed + args.cells):
-        jobs.append((f"random_{seed}", seed, "", args.rounds))
+        jobs.append((f"{prefix}_{seed}", seed, "", args.rounds, args.kind))
     t0 = time.perf_counter()
     cells = slots = agree = served = 0
     kinds: Counter[str] = Counter()

@@ -4,7 +4,9 @@
 shelf facing the robot (1 to 4 rows and columns, other pitches, heights and depths), a bin
 elsewhere around the base (other sizes and rim heights), sometimes a target of another size,
 zero to three obstacles (columns, walls and beams in the swing, a beam over part of the bin) and
-sometimes a ready pose of its own. :func:`agreement` checks the cell as ``check`` does and runs
+sometimes a ready pose of its own; with ``kind="edge"``, the edges that draw seldom reaches (a
+low or high shelf, an obstacle in front of the shelf, a bin near the arm's reach, a ready pose
+with joint 1 near +-180 deg). :func:`agreement` checks the cell as ``check`` does and runs
 every slot as ``run`` does (in turn, ``rounds`` times, so the carries go to several drop spots):
 a slot agrees when check serves it and each of its cycles succeeds with no robot-cell contact,
 or check refuses it and none of its cycles does (a cell ``run`` refuses runs none).
@@ -133,6 +135,97 @@ def _draw(rng: np.random.Generator, name: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _ready(rng: np.random.Generator, q1: float) -> list[float]:
+    """An arm folded up, joint 1 at ``q1`` [deg]."""
+    return [
+        q1,
+        float(rng.uniform(-40.0, 20.0)),
+        float(rng.uniform(-30.0, 50.0)),
+        float(rng.choice([0.0, rng.uniform(-180.0, 180.0)])),
+        float(rng.uniform(-60.0, 60.0)),
+        float(rng.choice([0.0, rng.uniform(-180.0, 180.0)])),
+    ]
+
+
+def _draw_edge(rng: np.random.Generator, name: str) -> str:
+    """One cell's TOML text at the edges :func:`_draw` seldom or never reaches: a shelf
+    standing low (bottom 0.05-0.3 m) or high (1.4-2.3 m), an obstacle just in front of the
+    shelf's open front (a column, or a box up to some of its rows, in the approach of some
+    slots), a bin near the arm's reach (2.5-3.2 m out), a ready pose with joint 1 near +-180
+    deg (facing away, on either side of the limit's turn); one to four of these at once."""
+    lines = [f'name = "{name}"', "", "[shelf]"]
+    kinds = ["low_high", "approach", "far_bin", "behind"]
+    edges = set(rng.choice(kinds, int(rng.integers(1, 5)), replace=False))
+    bearing = float(rng.uniform(-150.0, 150.0))
+    distance = float(rng.uniform(1.9, 2.7))
+    rows, columns = int(rng.integers(1, 4)), int(rng.integers(1, 4))
+    column_pitch = float(rng.uniform(0.6, 1.0))
+    depth = float(rng.uniform(0.35, 0.6))
+    if "low_high" in edges and rng.random() < 0.5:
+        bottom = float(rng.uniform(0.05, 0.3))
+    elif "low_high" in edges:
+        bottom, rows = float(rng.uniform(1.4, 2.3)), min(rows, 2)
+    else:
+        bottom = float(rng.uniform(0.5, 1.0))
+    pitch = float(rng.uniform(0.45, 0.8))
+    yaw = bearing + float(rng.uniform(-10.0, 10.0))
+    x, y = _polar(distance + depth / 2.0, bearing)
+    lines += [
+        f"position = {_list([x, y])}",
+        f"yaw_deg = {_f(yaw)}",
+        f"rows = {rows}",
+        f"columns = {columns}",
+        f"column_pitch = {_f(column_pitch)}",
+    ]
+    if rows > 1:
+        lines.append(f"row_pitch = {_f(pitch)}")
+    lines += [f"bottom = {_f(bottom)}", f"depth = {_f(depth)}"]
+
+    side = float(rng.choice([-1.0, 1.0]))
+    bin_bearing = bearing + side * float(rng.uniform(60.0, 150.0))
+    far = "far_bin" in edges
+    bin_distance = float(rng.uniform(2.5, 3.2) if far else rng.uniform(1.5, 2.5))
+    bx, by = _polar(bin_distance, bin_bearing)
+    size = [float(v) for v in rng.uniform((0.6, 0.6, 0.3), (1.2, 1.2, 1.1))]
+    lines += ["", "[bin]", f"position = {_list([bx, by])}", f"size = {_list(size)}"]
+
+    if "approach" in edges:  # in front of the open front, beside or before some slots
+        width = columns * column_pitch
+        gap = float(rng.uniform(0.1, 0.5))
+        across = float(rng.uniform(-0.6, 0.6)) * width
+        a = math.radians(yaw)
+        along = (math.cos(a), math.sin(a))  # into the shelf
+        lateral = (-math.sin(a), math.cos(a))
+        fx, fy = x - along[0] * depth / 2.0, y - along[1] * depth / 2.0  # the front's centre
+        if rng.random() < 0.5:  # a column to the floor
+            s = float(rng.uniform(0.1, 0.3))
+            h = float(rng.uniform(1.0, 3.0))
+            extents = [s, s, h]
+        else:  # a box up to some of the rows
+            s = float(rng.uniform(0.1, 0.3))
+            h = bottom + float(rng.uniform(-0.2, 0.4)) + (rows - 1) * pitch * float(rng.random())
+            h = max(h, 0.2)
+            extents = [s, float(rng.uniform(0.2, 0.8)), h]
+        cx = fx - along[0] * (gap + extents[0] / 2.0) + lateral[0] * across
+        cy = fy - along[1] * (gap + extents[0] / 2.0) + lateral[1] * across
+        lines += [
+            "",
+            "[[obstacles]]",
+            f"position = {_list([cx, cy, extents[2] / 2.0])}",
+            f"size = {_list(extents)}",
+            f"yaw_deg = {_f(yaw)}",
+        ]
+
+    if "behind" in edges:
+        q1 = float(rng.choice([-1.0, 1.0])) * float(rng.uniform(170.0, 185.0))
+        lines += ["", "[robot]", f"ready_q = {_list(_ready(rng, q1))}"]
+    return "\n".join(lines) + "\n"
+
+
+#: The kinds of draw: what :func:`random_cell` draws with each.
+KINDS = {"plain": _draw, "edge": _draw_edge}
+
+
 @dataclass(frozen=True, slots=True)
 class RandomCell:
     """A drawn cell.
@@ -148,18 +241,23 @@ class RandomCell:
     refused: tuple[str, ...] = ()
 
 
-def random_cell(seed: int) -> RandomCell:
+def random_cell(seed: int, kind: str = "plain") -> RandomCell:
     """The first cell drawn from ``seed`` that the cell file's validator accepts.
+
+    Args:
+        seed: The seed.
+        kind: "plain" (:func:`_draw`) or "edge" (:func:`_draw_edge`), see :data:`KINDS`.
 
     Raises:
         ConfigError: When :data:`ATTEMPTS` draws are all refused.
     """
     rng = np.random.default_rng(seed)
     refused: list[str] = []
+    name = f"random_{seed}" if kind == "plain" else f"{kind}_{seed}"
     for _ in range(ATTEMPTS):
-        text = _draw(rng, f"random_{seed}")
+        text = KINDS[kind](rng, name)
         try:
-            parse_cell(text, f"random_{seed}.toml")
+            parse_cell(text, f"{name}.toml")
         except ConfigError as exc:
             refused.append(str(exc))
             continue

@@ -208,3 +208,17 @@ def test_check_agrees_with_run_on_cells_drawn_at_random(
     result = agreement(random_cell(seed), rounds)
     assert [s.served for s in result.slots] == served
     assert not result.disagreements, [s.describe() for s in result.disagreements]
+
+
+def test_check_serves_the_slots_ahead_of_a_ready_pose_facing_away(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The red team's `check --cell rq_behind.toml` (``ready_q = [180, 0, 0, 0, 0, 0]``): slots
+    8 and 9 were "no no ... a joint jumps 3.14 rad between samples" and the cell NOT SERVED,
+    while run served slots 6, 5 and 3 (and now 8)."""
+    cell = tmp_path / "rq_behind.toml"
+    cell.write_text(_cell("\n[robot]\nready_q = [180, 0, 0, 0, 0, 0]\n"))
+    assert main(["check", "--cell", str(cell)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("cell published: every slot and drop spot can be served")
+    assert "slot 8         yes   yes    1 direct" in out and "jumps" not in out
