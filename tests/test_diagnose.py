@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from kr210_sim.errors import UnreachablePoseError
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases
 from kr210_sim.robot import kinematics
@@ -237,3 +238,77 @@ def test_the_servers_mistakes_and_python_2s_notes_are_named(cases: list[Case]) -
     assert "(e.g. IK_debug case 3: joint_1 = q1 has free symbols q1)" in found["unevaluated"]
     assert found["python2"] == f"under Python 2, as under ROS, the code computed otherwise: {note}"
     assert "unusable" not in found  # named above, not as "not numbers"
+
+
+def _wrist_for(q123: np.ndarray, R: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """Joints 4-6 that give orientation ``R`` with joints 1-3 at ``q123`` (Gauss-Newton on our
+    forward kinematics), as a student's theta4-6 from R0_3 and R3_6 give them."""
+    w = start.astype(float).copy()
+
+    def err(w: np.ndarray) -> np.ndarray:
+        return (KIN.forward(np.r_[q123, w])[:3, :3] - R).ravel()
+
+    for _ in range(30):
+        e = err(w)
+        J = np.array([(err(w + 1e-7 * np.eye(3)[k]) - e) / 1e-7 for k in range(3)]).T
+        w -= np.linalg.lstsq(J, e, rcond=None)[0]
+    return w
+
+
+def test_theta4_to_6_wrong_with_the_wrist_centre_right_is_named(cases: list[Case]) -> None:
+    """R0_3 evaluated at (theta1, theta3, theta3): the wrist centre right, the orientation not."""
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        good = kinematics.nearest(T, q)
+        return np.r_[good[:3], good[3:] + np.array([0.4, -0.3, 0.2])]
+
+    found = diagnose(
+        KIN, check(KIN, UserIk("t:s", solve), cases, io.StringIO()), [c.T for c in cases]
+    )
+    assert found[0].code == "wrist_angles"
+    n = int(found[0].text.split()[0])  # those inside the limits (the others are named so)
+    assert n > 0.9 * len(cases)
+    assert f"{n} of {len(cases)} answers put the wrist centre" in found[0].text
+    assert "theta1-3 are right and theta4-6 are not" in found[0].text
+
+
+def test_the_drop_s_correction_with_the_wrong_sign_is_named(cases: list[Case]) -> None:
+    """theta3 = pi/2 - (b + atan2(a3, d4)) with a3 = -0.054: 0.072 rad too large, the wrist
+    angles found from that theta3 (the orientation right), the wrist centre 108 mm off."""
+    sag = math.atan2(0.054, 1.5)
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        good = kinematics.nearest(T, q)
+        q123 = good[:3] + np.array([0.0, 0.0, 2 * sag])
+        return np.r_[q123, _wrist_for(q123, T[:3, :3], good[3:])]
+
+    found = diagnose(
+        KIN, check(KIN, UserIk("t:s", solve), cases, io.StringIO()), [c.T for c in cases]
+    )
+    assert found[0].code == "theta3_offset"
+    assert "wrist centre 108 mm from where it belongs, the same on each" in found[0].text
+    assert "theta3 is off by a constant 0.072 rad (4.1 deg), twice the drop's" in found[0].text
+
+
+def test_a_stale_rotation_is_named_when_the_positions_miss_too(cases: list[Case]) -> None:
+    """The rotation overwritten by the first pose's, and the wrist centre found from it: the
+    positions miss as well (a stale R0_6 used for the wrist centre and for R3_6)."""
+    first: list[np.ndarray] = []
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        first.append(T[:3, :3].copy()) if not first else None
+        stale = T.copy()
+        stale[:3, :3] = first[0]
+        stale[0, 3] += 0.01  # and the position off besides
+        try:
+            return kinematics.nearest(stale, q)
+        except UnreachablePoseError:
+            return None
+
+    found = diagnose(
+        KIN, check(KIN, UserIk("t:s", solve), cases, io.StringIO()), [c.T for c in cases]
+    )
+    assert found[0].code == "stale_rotation"
+    n, _, answered = found[0].text.split()[:3]
+    assert int(n) == int(answered) - 1 > 0.7 * len(cases)  # all but the first pose's answer
+    assert found[0].text.startswith(f"{n} of {answered} answers have the orientation")

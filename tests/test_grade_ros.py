@@ -59,7 +59,8 @@ def test_a_class_of_original_form_submissions_is_graded_in_one_call(tmp_path: Pa
     assert by["peggy"]["detail"].endswith(
         "IK_server.py line 4 imports moveit_commander, a ROS package kr210_sim does not provide "
         "(it provides rospy, tf, tf2_ros, kuka_arm.srv, geometry_msgs.msg, std_msgs.msg, "
-        "trajectory_msgs.msg, sensor_msgs.msg, visualization_msgs.msg, roslib)"
+        "trajectory_msgs.msg, sensor_msgs.msg, visualization_msgs.msg, roslib, and the .msg and "
+        ".srv types of the repository's own catkin packages)"
     )
     assert by["trent"]["detail"].endswith(
         "IK_server.py line 51: `theta2 =` cannot be read as Python 2 (a syntax error at the "
@@ -71,7 +72,9 @@ def test_a_class_of_original_form_submissions_is_graded_in_one_call(tmp_path: Pa
 
 def test_one_ik_in_both_forms_gives_the_same_answers_and_verdicts(tmp_path: Path) -> None:
     """The same closed form as a ROS server (Python 2, tf's roll, pitch and yaw) and as
-    solve(T, q_ref): the same answers to 1e-9 rad, the same verdicts and figures."""
+    solve(T, q_ref): the same answers to 1e-9 rad, the same verdicts and figures; only fewer
+    branch changes for the server, whose angles are taken at their 2 pi twins nearest q_ref (it
+    was never sent q_ref) where ours answered a turn away from it."""
     ros, ours = ros_class.cross_check()
     server = tmp_path / "class" / "as_ros" / "kuka_arm" / "scripts" / "IK_server.py"
     server.parent.mkdir(parents=True)
@@ -92,8 +95,9 @@ def test_one_ik_in_both_forms_gives_the_same_answers_and_verdicts(tmp_path: Path
     a, b = (next(s for s in report.students if s["name"] == n) for n in ("as_ros", "as_ours"))
     assert a["verdict"] == b["verdict"] == "pass"
     assert a["detail"] == b["detail"]
-    for key in ("cases", "passed", "outside_limits", "branch_changes"):
+    for key in ("cases", "passed", "outside_limits"):
         assert a["ik_check"][key] == b["ik_check"][key]
+    assert a["ik_check"]["branch_changes"] < b["ik_check"]["branch_changes"]
     assert a["ik_check"]["max_position_error_m"] == pytest.approx(
         b["ik_check"]["max_position_error_m"], abs=1e-9
     )

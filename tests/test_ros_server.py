@@ -229,7 +229,8 @@ def test_a_ros_package_that_is_not_here_is_one_line(tmp_path: Path) -> None:
     assert str(err.value).endswith(
         "IK_server.py line 2 imports moveit_commander, a ROS package kr210_sim does not provide "
         "(it provides rospy, tf, tf2_ros, kuka_arm.srv, geometry_msgs.msg, std_msgs.msg, "
-        "trajectory_msgs.msg, sensor_msgs.msg, visualization_msgs.msg, roslib)"
+        "trajectory_msgs.msg, sensor_msgs.msg, visualization_msgs.msg, roslib, and the .msg and "
+        ".srv types of the repository's own catkin packages)"
     )
     with pytest.raises(
         IkSpecError, match=r"line 1 imports no_such_lib_here, which is not installed"

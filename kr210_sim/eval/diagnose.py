@@ -18,9 +18,14 @@ Each finding is a short code and a sentence that says what the figures show and 
 
 The mistakes of the original exercise's servers (:mod:`kr210_sim.robot.ros`):
 
-* ``stale_rotation``: answers that reach their pose's position with an earlier pose's
-  orientation: a rotation matrix overwritten with one pose's numbers (``R = R.subs(...)`` in
-  the loop) and reused for the next.
+* ``stale_rotation``: answers with an earlier pose's orientation: a rotation matrix
+  overwritten with one pose's numbers (``R = R.subs(...)`` in the loop) and reused for the next.
+* ``wrist_angles``: the wrist centre right, the orientation not: theta1-3 are right, theta4-6
+  are not (``R0_3`` evaluated at other angles, or theta4-6 read from the wrong entries of
+  ``R3_6``, or the other wrist solution's theta4 and theta6 with this one's theta5).
+* ``theta3_offset``: the orientation right and the wrist centre off by the same distance on
+  every answer: theta3 is off by a constant angle (the correction for the 0.054 m drop with
+  the wrong sign is 0.072 rad).
 * ``euler_order``: positions exact, orientations off by a rotation that changes from pose to
   pose: the rotation built from roll, pitch and yaw is not the pose's (the order named when one
   of the six orders of the elementary rotations explains the answers).
@@ -242,6 +247,10 @@ def _exact_position(r: dict[str, Any]) -> bool:
     return r["q"] is not None and r["position_error_m"] <= POSITION_TOL
 
 
+def _wrong_rotation(r: dict[str, Any]) -> bool:
+    return bool(r["orientation_error_rad"] > ORIENTATION_TOL)
+
+
 def _wrong_orientation(records: Sequence[dict[str, Any]]) -> list[int]:
     """Indices of the answers with their position right and their orientation wrong."""
     return [
@@ -254,10 +263,11 @@ def _wrong_orientation(records: Sequence[dict[str, Any]]) -> list[int]:
 def stale_rotation(
     kin: Kinematics, records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
 ) -> Finding | None:
-    """``stale_rotation``: most answers with their position right and their orientation wrong
-    (at least :data:`FEW`) have an earlier pose's orientation."""
-    wrong = _wrong_orientation(records)
+    """``stale_rotation``: most answers with their orientation wrong (at least :data:`FEW`;
+    their position right or not: a wrist centre found from the stale rotation misses too) have
+    an earlier pose's orientation."""
     answered = [r for r in records if r["q"] is not None]
+    wrong = [i for i, r in enumerate(records) if r["q"] is not None and _wrong_rotation(r)]
     if len(wrong) < FEW:
         return None
     rotations = np.array([np.asarray(T)[:3, :3] for T in poses])
@@ -270,14 +280,78 @@ def stale_rotation(
     if len(stale) < MAJORITY * len(wrong):
         return None
     i, j = stale[0]
+    exact = sum(_exact_position(records[k]) for k, _ in stale)
+    reach = "reach their pose's position with" if exact == len(stale) else "have"
     return Finding(
         "stale_rotation",
-        f"{len(stale)} of {len(answered)} answers reach their pose's position with the "
+        f"{len(stale)} of {len(answered)} answers {reach} the "
         f"orientation of an earlier pose (e.g. {records[i]['name']} has {records[j]['name']}'s): "
         "a rotation matrix is overwritten with one pose's numbers and reused for the next "
         "(R = R.subs(...) inside the loop over the poses); substitute into a new name for each "
         "pose",
     )
+
+
+#: Distance from joint 3 to the wrist centre, sqrt(1.5^2 + 0.054^2) [m]: a constant theta3
+#: error moves the wrist centre by 2 L sin(error / 2), the same on every answer.
+L3 = math.hypot(1.5, A3_OFFSET)
+#: The drop's angle, atan2(0.054, 1.5) [rad]: theta3 off by twice it is the correction's sign.
+SAG = math.atan2(A3_OFFSET, 1.5)
+#: How close two wrist-centre errors must be to be "the same" [m].
+SAME_DISTANCE = 1e-3
+
+
+def wrist_angles(records: Sequence[dict[str, Any]]) -> Finding | None:
+    """``wrist_angles``: on most answers (at least :data:`FEW`) the wrist centre is right and
+    the orientation is not (see the module doc)."""
+    answered = _answered(records)
+    bad = [  # inside the limits: an answer outside them is named as such
+        r
+        for r in answered
+        if r["within_limits"] and r["wrist_centre_error_m"] <= POSITION_TOL and _wrong_rotation(r)
+    ]
+    if len(bad) < FEW or len(bad) < MAJORITY * len(answered):
+        return None
+    worst = max(r["orientation_error_rad"] for r in bad)
+    return Finding(
+        "wrist_angles",
+        f"{len(bad)} of {len(answered)} answers put the wrist centre where it belongs (within "
+        f"{1000 * POSITION_TOL:g} mm) with the orientation off by up to "
+        f"{math.degrees(worst):.0f} deg: theta1-3 are right and theta4-6 are not (check that "
+        "R0_3 is evaluated at theta1, theta2 and theta3, that R3_6 = R0_3.T * Rrpy with the "
+        "gripper correction, and which entries of R3_6 theta4, theta5 and theta6 read; the "
+        "other wrist solution flips the signs of all three)",
+    )
+
+
+def theta3_offset(records: Sequence[dict[str, Any]]) -> Finding | None:
+    """``theta3_offset``: the answers with their orientation right and their wrist centre
+    wrong (at least :data:`FEW`) mostly miss it by the same distance (see the module doc)."""
+    off = [
+        r
+        for r in _answered(records)
+        if not _wrong_rotation(r) and r["wrist_centre_error_m"] > POSITION_TOL
+    ]
+    if len(off) < FEW:
+        return None
+    d = float(np.median([r["wrist_centre_error_m"] for r in off]))
+    same = [r for r in off if abs(r["wrist_centre_error_m"] - d) <= SAME_DISTANCE]
+    if len(same) < MAJORITY * len(off) or abs(d - A3_OFFSET) <= A3_BAND:
+        return None  # varying, or the drop left out (offset_0054 names it)
+    error = 2.0 * math.asin(min(1.0, d / (2.0 * L3)))
+    text = (
+        f"{len(same)} answers with the orientation right put the wrist centre "
+        f"{1000 * d:.0f} mm from where it belongs, the same on each: theta3 is off by a constant "
+        f"{error:.3f} rad ({math.degrees(error):.1f} deg)"
+    )
+    if abs(error - 2 * SAG) <= 0.003:
+        text += (
+            f", twice the drop's {SAG:.3f} rad: its correction has the wrong sign (theta3 = "
+            "pi/2 - (angle + 0.036); with a3 = -0.054, atan2(a3, d4) is -0.036)"
+        )
+    else:
+        text += " (check the constant terms of theta3: pi/2 and the drop's 0.036 rad)"
+    return Finding("theta3_offset", text)
 
 
 def euler_order(
@@ -402,7 +476,13 @@ def diagnose(
         if f is not None:
             found.append(f)
     if not found:  # a varying rotation: an earlier pose's, or the Euler angles composed wrong
-        f = stale_rotation(kin, records, poses) or euler_order(kin, records, poses)
+        f = (
+            stale_rotation(kin, records, poses)
+            or euler_order(kin, records, poses)
+            or wrist_angles(records)
+        )
+        found += [f] if f is not None else []
+        f = theta3_offset(records) if not any(f.code == "wrist_angles" for f in found) else None
         found += [f] if f is not None else []
     found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
@@ -427,8 +507,11 @@ def diagnose(
         found.append(
             Finding(
                 "outside_limits",
-                f"{len(outside)} answers lie outside the joint limits (e.g. {r['name']}: "
-                f"{r['problem']}): keep only the branches inside the limits",
+                f"{len(outside)} answers lie outside the joint limits, for poses the arm reaches "
+                f"inside them (e.g. case {r['name']} at {r['position']}: {r['problem']}): an IK "
+                "of one branch (theta1 = atan2(wy, wx), one elbow, one wrist) misses the poses "
+                "only another reaches inside the limits; try the others (theta1 + pi with the "
+                "arm over its back, the other elbow, the other wrist) and keep one inside them",
             )
         )
     raised = [r for r in records if r.get("error")]

@@ -270,7 +270,13 @@ def check(
         chunk = cases[first : first + step]
         got = call_many(ik, [c.T for c in chunk], [c.q_ref for c in chunk])
         for case, (raw, dt) in zip(chunk, got, strict=True):
-            records.append(case_record(kin, case, assess(kin, case.T, case.q_ref, raw, dt)))
+            records.append(
+                case_record(
+                    kin,
+                    case,
+                    assess(kin, case.T, case.q_ref, raw, dt, no_q_ref=ik.batch is not None),
+                )
+            )
         i = first + len(chunk)
         if line.due() or (shown and i == len(cases)):
             shown = True

@@ -167,13 +167,15 @@ def _exception_text(exc: BaseException) -> str:
 
 
 def into_limits(
-    kin: Kinematics, q: FloatArray, q_ref: FloatArray
+    kin: Kinematics, q: FloatArray, q_ref: FloatArray, every: bool = False
 ) -> tuple[FloatArray, tuple[int, ...]]:
     """Move each angle outside the limits of ``kin``'s robot, but within one turn of them, to its
     2 pi twin inside them (nearest ``q_ref``).
 
-    Angles already inside the limits are kept, and so are angles more than one turn outside
-    (``1e300``: its "twin" would be rounding noise). Returns the new angles and the joints moved.
+    Angles already inside the limits are kept (unless ``every``: then each angle is taken at its
+    twin inside the limits nearest ``q_ref``, for an IK that was never sent ``q_ref``), and so
+    are angles more than one turn outside (``1e300``: its "twin" would be rounding noise).
+    Returns the new angles and the joints moved.
     """
     g = kin.geometry
     out = q.copy()
@@ -181,7 +183,15 @@ def into_limits(
     for j in range(6):
         lo, hi = g.lower[j] - LIMIT_SLACK, g.upper[j] + LIMIT_SLACK
         v = float(out[j])
-        if lo <= v <= hi or not lo - TWO_PI <= v <= hi + TWO_PI:
+        inside = lo <= v <= hi
+        if not lo - TWO_PI <= v <= hi + TWO_PI or (inside and not every):
+            continue
+        if inside:  # every: the twin of an angle inside the limits nearest q_ref, if not itself
+            twin = min((v + k * TWO_PI for k in (-1, 0, 1) if lo <= v + k * TWO_PI <= hi),
+                       key=lambda t: abs(t - float(q_ref[j])))  # fmt: skip
+            if twin != v:
+                out[j] = twin
+                moved.append(j)
             continue
         base = v - TWO_PI * math.floor((v - lo) / TWO_PI)  # the twin in [lo, lo + 2 pi)
         twins = [base + k * TWO_PI for k in range(3) if base + k * TWO_PI <= hi]
@@ -205,7 +215,12 @@ def _rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
 
 
 def assess(
-    kin: Kinematics, T: FloatArray, q_ref: FloatArray, raw: Any, call_time: float = 0.0
+    kin: Kinematics,
+    T: FloatArray,
+    q_ref: FloatArray,
+    raw: Any,
+    call_time: float = 0.0,
+    no_q_ref: bool = False,
 ) -> Assessment:
     """Judge one answer ``raw`` of a user's IK for pose ``T`` from ``q_ref`` (see module doc).
 
@@ -215,6 +230,8 @@ def assess(
         q_ref: Joint state passed to the function [rad].
         raw: What the function returned, or the exception it raised.
         call_time: Wall-clock time of the call [s].
+        no_q_ref: The function was never sent ``q_ref`` (a ROS-form server: MoveIt's requests
+            held poses only), so each angle is taken at its 2 pi twin nearest ``q_ref``.
     """
     nan = math.nan
 
@@ -229,7 +246,7 @@ def assess(
     q, why = _as_angles(raw)
     if q is None:
         return unusable(why)
-    q, wrapped = into_limits(kin, q, q_ref)
+    q, wrapped = into_limits(kin, q, q_ref, every=no_q_ref)
     g = kin.geometry
     outside = [
         j for j in range(6) if not (g.lower[j] - LIMIT_SLACK <= q[j] <= g.upper[j] + LIMIT_SLACK)
@@ -364,7 +381,7 @@ class CheckedIk:
         ahead = self._ahead.get(np.asarray(T, dtype=np.float64).tobytes())
         raw, dt = ahead.pop(0) if ahead else call_timed(self.user.function, T, q_ref)
         self.stats.add(dt)
-        a = assess(self.kin, T, q_ref, raw, dt)
+        a = assess(self.kin, T, q_ref, raw, dt, no_q_ref=self.user.batch is not None)
         where = f"{what} {_pose_text(T)}"
         if a.returned_none:
             try:

@@ -107,14 +107,19 @@ def spec_files(spec: str) -> SpecFiles:
     """The files a SPEC's code is read from (see :class:`SpecFiles`), found as :func:`load_ik`
     would find them in this process. A module that cannot be found gives none (loading it then
     says why). A ROS-form script's are its folder and, in a catkin package, the package's
-    ``src`` folder beside it (its Python modules)."""
+    ``src`` folder beside it (its Python modules) and the message definitions of the catkin
+    packages beside it (:func:`~kr210_sim.robot.ros.packages.definition_files`)."""
     where = resolve_spec(spec).rpartition(":")[0]
     if _is_path(where):
         folder = Path(where).resolve().parent
+        if not is_ros_form(Path(where)):
+            return SpecFiles((folder,), ())
+        from kr210_sim.robot.ros.packages import definition_files
+
         src = folder.parent / "src"
-        if src.is_dir() and is_ros_form(Path(where)):
-            return SpecFiles((folder, src.resolve()), ())
-        return SpecFiles((folder,), ())
+        readable = [folder, *([src.resolve()] if src.is_dir() else [])]
+        readable += [p for p in definition_files(Path(where)) if p not in readable]
+        return SpecFiles(tuple(readable), ())
     top = where.split(".")[0]
     if not top or top == __name__.split(".")[0]:
         return SpecFiles((), ())

@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError, one_line
-from kr210_sim.robot.ros import answers, legacy, node
+from kr210_sim.robot.ros import answers, legacy, node, packages
 from kr210_sim.robot.ros.py2 import Notes, compile_py2, runtime
 
 FloatArray = npt.NDArray[np.float64]
@@ -210,6 +210,7 @@ class RosServer:
                 sys.path.remove(str(folder))
             sys.path.insert(0, str(folder))
         _finder().add(self.roots, self.notes)
+        packages.install(self.script)
         node.set_serve(self._serve_registered)
         thread = threading.Thread(target=self._main, name="IK_server", daemon=True)
         thread.start()
@@ -283,7 +284,8 @@ class RosServer:
             if is_ros_package(exc.name):
                 return IkSpecError(
                     f"--ik {self.spec!r}: {where or self.script.name} imports {exc.name}, a ROS "
-                    f"package kr210_sim does not provide (it provides {', '.join(PROVIDED)})"
+                    f"package kr210_sim does not provide (it provides {', '.join(PROVIDED)}, and "
+                    "the .msg and .srv types of the repository's own catkin packages)"
                 )
             return IkSpecError(
                 f"--ik {self.spec!r}: {where or self.script.name} imports {exc.name}, which is "
