@@ -222,10 +222,14 @@ def test_a_failed_video_raises_with_the_run(
 
 
 def _timeless(value: Any) -> Any:
-    """``value`` without its wall-clock times (every ``wall_time*`` key) and CPU times
-    (``cpu_s``: the jail's)."""
+    """``value`` without its wall-clock times (every ``wall_time*`` key), CPU times (``cpu_s``:
+    the jail's) and memory peaks (``memory_peak_mb``: the jail's)."""
     if isinstance(value, dict):
-        kept = {k: v for k, v in value.items() if not k.startswith("wall_time") and k != "cpu_s"}
+        kept = {
+            k: v
+            for k, v in value.items()
+            if not k.startswith("wall_time") and k not in ("cpu_s", "memory_peak_mb")
+        }
         return {k: _timeless(v) for k, v in kept.items()}
     if isinstance(value, list):
         return [_timeless(v) for v in value]
