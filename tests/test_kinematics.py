@@ -99,6 +99,158 @@ def test_single_and_batch_paths_agree() -> None:
         assert np.abs(kin.forward(qs[i]) - T[i]).max() < 1e-12  # scalar vs batch forward
 
 
+def hard_poses(rng: np.random.Generator, g: kin.Geometry, n: int) -> dict[str, np.ndarray]:
+    """Joint states (n, 6) inside ``g``'s limits by kind: random, and the hard cases."""
+    q = {kind: rng.uniform(g.lower, g.upper, size=(n, 6)) for kind in ("random", "wrist", "axis")}
+    q["wrist"][:, 4] = 0.0  # wrist singular: only q4 + q6 is defined
+    # wrist centre on joint 1's axis (q1 free): a1 + a2 sin q2 + L cos(q2 + q3 + phi) = 0
+    q["axis"][:, 1] = rng.uniform(-0.3, 0.3, size=n)
+    c = -(g.a1 + g.a2 * np.sin(q["axis"][:, 1])) / g.forearm
+    q["axis"][:, 2] = -np.arccos(c) - g.forearm_angle - q["axis"][:, 1]
+    limits = rng.uniform(g.lower, g.upper, size=(n, 6))
+    for row in limits:  # two joints exactly at a limit
+        j = rng.choice(6, size=2, replace=False)
+        row[j] = np.where(rng.random(2) < 0.5, g.lower[j], g.upper[j])
+    q["limits"] = limits
+    q["stretched"] = rng.uniform(g.lower, g.upper, size=(n, 6))
+    q["stretched"][:, 2] = -math.pi / 2 - g.forearm_angle  # forearm in line with link_2
+    return q
+
+
+def out_of_reach(rng: np.random.Generator, g: kin.Geometry, n: int) -> np.ndarray:
+    """Poses (n, 4, 4) whose wrist centre is 5 cm to 2 m beyond the reach from either place
+    joint 2 can take."""
+    R = kin.forward(rng.uniform(g.lower, g.upper, size=(n, 6)))[:, :3, :3]
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    far = g.a1 + g.reach + rng.uniform(0.05, 2.0, size=(n, 1))
+    T = np.repeat(np.eye(4)[None], n, axis=0)
+    T[:, :3, :3] = R
+    T[:, :3, 3] = np.array([0.0, 0.0, g.d0 + g.h1]) + u * far + g.dg * R[:, :, 0]
+    return T
+
+
+def _odd_limits() -> RobotDescription:
+    """The committed description with limits that take every branch of the wrapping rules:
+    joint 1 narrower than +-pi, joint 2 past -pi, joint 4 off centre, joint 5 wider than +-pi,
+    joint 6 from -100 to 270 deg."""
+    robot = load_robot()
+    lower = np.radians([-170.0, -200.0, -210.0, -120.0, -190.0, -100.0])
+    upper = np.radians([170.0, 120.0, 65.0, 150.0, 190.0, 270.0])
+    return dataclasses.replace(robot, q_lower=lower, q_upper=upper)
+
+
+def _same_solutions(single: np.ndarray, batch_rows: np.ndarray, tol: float) -> bool:
+    """Whether two solution sets are the same up to ``tol`` [rad] per joint (the batch path
+    repeats a solution where two branches coincide: wrist straight, arm stretched; a joint at
+    exactly +-pi may come out as either)."""
+    rows = batch_rows[~np.isnan(batch_rows[:, 0])]
+    if not len(single) or not len(rows):
+        return len(single) == len(rows)
+    d = np.abs(np.remainder(single[:, None, :] - rows[None, :, :] + np.pi, 2 * np.pi) - np.pi)
+    close = (d <= tol).all(axis=2)
+    return bool(close.any(axis=1).all() and close.any(axis=0).all())
+
+
+@pytest.mark.parametrize("robot", [None, "odd limits"])
+def test_single_pose_path_matches_the_batch_path_on_hard_poses(robot: str | None) -> None:
+    """The single-pose path (pure math) and the batch path (numpy) are separate code: both give
+    the same solutions on random poses, with the wrist straight, the wrist centre on joint 1's
+    axis, joints at their limits, the arm stretched, and out of reach."""
+    k = kin.committed() if robot is None else kin.Kinematics(_odd_limits())
+    g = k.geometry
+    rng = np.random.default_rng(33)
+    poses = {kind: k.forward(q) for kind, q in hard_poses(rng, g, 300).items()}
+    poses["out of reach"] = out_of_reach(rng, g, 300)
+    for kind, T in poses.items():
+        batch = k.inverse(T)
+        found = 0
+        tol = 1e-7 if kind == "stretched" else 1e-9  # acos near 1: q2, q3 to ~sqrt(eps)
+        for i in range(len(T)):
+            single = k.inverse(T[i])
+            assert _same_solutions(single, batch[i], tol), (kind, i, single, batch[i])
+            assert ((single >= g.lower - 1e-9) & (single <= g.upper + 1e-9)).all()
+            found += len(single)
+        assert (found == 0) == (kind == "out of reach"), kind
+
+
+def _nearest_from_batch(k: kin.Kinematics, T: np.ndarray, ref: np.ndarray) -> list:
+    """(cost, q) of every candidate of ``nearest``, built from the batch path's solutions with
+    the documented rules (wrist straight: q4 kept at the reference's; joints 1, 4, 6 at their
+    2 pi twin inside the limits closest to the reference; cost sum(((q - ref) / v_max)^2))."""
+    g = k.geometry
+    lo, hi = g.lower - kin.LIMIT_SLACK, g.upper + kin.LIMIT_SLACK
+    out = []
+    for cand in k.inverse(T[None])[0]:
+        if np.isnan(cand[0]):
+            continue
+        cand = cand.copy()
+        if abs(math.sin(cand[4])) < 1e-7:
+            shift = ref[3] - cand[3]
+            cand[3] = ref[3]
+            cand[5] += -shift if math.cos(cand[4]) > 0 else shift
+            twins = cand[5] + 2 * np.pi * np.arange(-3, 4)
+            inside = twins[(twins >= lo[5]) & (twins <= hi[5])]
+            if not len(inside):
+                continue
+            if not lo[5] <= cand[5] <= hi[5]:
+                cand[5] = inside[np.argmin(np.abs(np.remainder(inside + np.pi, 2 * np.pi) - np.pi))]
+        for j in (0, 3, 5):
+            twins = cand[j] + 2 * np.pi * np.arange(-3, 4)
+            twins = twins[(twins >= lo[j]) & (twins <= hi[j])]
+            if len(twins):
+                cand[j] = twins[np.argmin(np.abs(twins - ref[j]))]
+        out.append((float((((cand - ref) / g.v_max) ** 2).sum()), cand))
+    return out
+
+
+@pytest.mark.parametrize("robot", [None, "odd limits"])
+def test_nearest_is_the_cheapest_candidate_of_the_batch_path(robot: str | None) -> None:
+    """``nearest`` searches its branches branch and bound (a shoulder or an arm that alone costs
+    more than the best so far is skipped): it still returns the cheapest of all candidates."""
+    k = kin.committed() if robot is None else kin.Kinematics(_odd_limits())
+    g = k.geometry
+    rng = np.random.default_rng(34)
+    checked = 0
+    for kind, qs in hard_poses(rng, g, 150).items():
+        T = k.forward(qs)
+        refs = [qs + rng.normal(0.0, 0.05, qs.shape), rng.uniform(g.lower, g.upper, qs.shape)]
+        for i in range(len(T)):
+            for ref in (refs[0][i], refs[1][i]):
+                cands = sorted(_nearest_from_batch(k, T[i], ref), key=lambda c: c[0])
+                q = k.nearest(T[i], ref)
+                cost = float((((q - ref) / g.v_max) ** 2).sum())
+                tol = 1e-7 if kind == "stretched" else 1e-9  # acos near 1: q2, q3 to ~sqrt(eps)
+                assert cost == pytest.approx(cands[0][0], rel=tol, abs=1e-12), (kind, i)
+                assert np.abs(k.forward(q) - T[i]).max() < 1e-9
+                if len(cands) == 1 or cands[1][0] > cands[0][0] + 1e-6:  # a clear winner
+                    np.testing.assert_allclose(q, cands[0][1], atol=tol)
+                    checked += 1
+    assert checked > 900  # of 1,500
+
+
+def test_nearest_of_an_unreachable_pose_raises_on_every_path() -> None:
+    T = np.eye(4)
+    T[:3, 3] = [5.0, 0.0, 1.0]
+    for pose in (T, T.tolist(), T.astype(np.float32)):
+        with pytest.raises(UnreachablePoseError, match="out of reach"):
+            kin.nearest(pose, np.zeros(6))
+        assert kin.inverse(pose).shape == (0, 6)
+
+
+def test_single_pose_inputs_of_any_array_like_give_the_same_answer() -> None:
+    q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+    T = kin.forward(q)
+    want_inv, want_near = kin.inverse(T), kin.nearest(T, q)
+    for pose in (T.tolist(), np.asfortranarray(T), T.copy()[::1, ::1]):
+        np.testing.assert_array_equal(kin.inverse(pose), want_inv)
+        np.testing.assert_array_equal(kin.nearest(pose, q.tolist()), want_near)
+    out = kin.inverse(T)
+    out[0, 0] = 99.0  # a fresh, writable array each call
+    np.testing.assert_array_equal(kin.inverse(T), want_inv)
+    assert kin.inverse(T).flags.writeable and kin.nearest(T, q).flags.writeable
+
+
 def test_nearest_returns_reference_when_it_is_a_solution() -> None:
     rng = np.random.default_rng(4)
     for q in random_q(rng, 500):
@@ -191,6 +343,10 @@ def test_error_hierarchy() -> None:
         (np.diag([1.0, 1.0, 2.0, 1.0]), "orthonormal"),
         (np.diag([1.0, 1.0, -1.0, 1.0]), "reflection"),
         (np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 1]], float), "bottom row"),
+        (np.array([[1, 0, 0, np.inf], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "NaN or inf"),
+        (np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, np.nan, 1]]), "NaN or inf"),
+        (np.diag([1.0 + 2e-6, 1.0, 1.0, 1.0]), r"orthonormal \(\|R\^T R - I\| = 4\.00e-06"),
+        (np.diag([-1.0, 1.0, 1.0, 1.0]), "reflection"),
     ],
 )
 def test_invalid_pose(pose: np.ndarray, message: str) -> None:

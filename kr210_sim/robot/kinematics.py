@@ -35,14 +35,29 @@ import numpy.typing as npt
 
 from kr210_sim.errors import UnreachablePoseError
 from kr210_sim.robot.description import ARM_JOINTS, Geometry, RobotDescription, load_robot
+from kr210_sim.robot.ik_scalar import (
+    LIMIT_SLACK,
+    TWO_PI,
+    WRIST_SINGULAR,
+    best_twin,
+    inverse_one,
+    nearest_one,
+)
 from kr210_sim.robot.poses import CHUNK, check_pose, check_q, thread_pool
 
+__all__ = [
+    "CHUNK",
+    "LIMIT_SLACK",
+    "TWO_PI",
+    "WRIST_SINGULAR",
+    "Kinematics",
+    "committed",
+    "forward",
+    "inverse",
+    "nearest",
+]
+
 FloatArray = npt.NDArray[np.float64]
-TWO_PI = 2.0 * math.pi
-#: |sin q5| below which the wrist counts as straight (singular).
-WRIST_SINGULAR = 1e-9
-#: Slack on the joint limits when checking solutions [rad].
-LIMIT_SLACK = 1e-9
 
 
 # --------------------------------------------------------------------------- forward
@@ -245,135 +260,25 @@ def _fit_limits(sol: FloatArray, g: Geometry) -> FloatArray:
 
 
 def _inverse(T: npt.ArrayLike, g: Geometry) -> FloatArray:
-    """:meth:`Kinematics.inverse` with the geometry ``g``."""
+    """:meth:`Kinematics.inverse` with the geometry ``g`` (one pose: the scalar path)."""
+    if type(T) is np.ndarray and T.shape == (4, 4):
+        return inverse_one(T, g)
     Ta = check_pose(T)
     if Ta.ndim == 2:
-        return np.array(_solutions_scalar(Ta, g), dtype=np.float64).reshape(-1, 6)
+        return inverse_one(Ta, g)
     return _inverse_batch(Ta, g)
-
-
-# --------------------------------------------------------------------------- scalar path
-def _wrap_into(v: float, lo: float, hi: float) -> float | None:
-    """``v`` wrapped to (-pi, pi] and shifted by 2 pi into [lo, hi]; None if impossible."""
-    if -math.pi < v <= math.pi and lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
-        return v
-    v = math.remainder(v, TWO_PI)
-    if v < lo - LIMIT_SLACK:
-        v += TWO_PI
-    elif v > hi + LIMIT_SLACK:
-        v -= TWO_PI
-    if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
-        return v
-    return None
-
-
-def _solutions_scalar(T: FloatArray, g: Geometry) -> list[list[float]]:
-    """Branches of one pose inside the limits, in the batch path's order (pure ``math``).
-
-    The single-pose path: the same formulas as :func:`_branches` and :func:`_fit_limits`
-    without numpy's per-call overhead (a test checks that both paths agree).
-    """
-    (r00, r01, r02, px), (r10, r11, r12, py), (r20, r21, r22, pz) = T[:3].tolist()
-    wx, wy, wz = px - g.dg * r00, py - g.dg * r10, pz - g.dg * r20
-    base_q1 = math.atan2(wy, wx)
-    rho = math.hypot(wx, wy)
-    zz = wz - g.d0 - g.h1
-    L, phi, a2 = g.forearm, g.forearm_angle, g.a2
-    lo, hi = g.lower_list, g.upper_list
-    out: list[list[float]] = []
-    for shoulder in (1.0, -1.0):
-        q1 = base_q1 if shoulder > 0 else base_q1 + math.pi
-        x = shoulder * rho - g.a1
-        cos_d = (x * x + zz * zz - a2 * a2 - L * L) / (2.0 * a2 * L)
-        if abs(cos_d) > 1.0 + 1e-12:
-            continue
-        cos_d = min(1.0, max(-1.0, cos_d))
-        c1, s1 = math.cos(q1), math.sin(q1)
-        # rows of Rz(q1)^T R
-        t00, t01, t02 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
-        t10, t11 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11
-        q1w = _wrap_into(q1, lo[0], hi[0])
-        elbows = (1.0,) if abs(cos_d) >= 1.0 else (1.0, -1.0)  # one elbow when stretched
-        for elbow in elbows:
-            delta = elbow * math.acos(cos_d)
-            alpha2 = math.atan2(zz, x) - math.atan2(L * math.sin(delta), a2 + L * math.cos(delta))
-            q2 = math.pi / 2.0 - alpha2
-            q3 = -delta - phi - math.pi / 2.0
-            c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
-            m00, m01, m02 = t00 * c23 - r20 * s23, t01 * c23 - r21 * s23, t02 * c23 - r22 * s23
-            m10, m11 = t10, t11
-            m20, m21 = t00 * s23 + r20 * c23, t01 * s23 + r21 * c23
-            s5_abs = math.hypot(m10, m20)
-            q2w = _wrap_into(q2, lo[1], hi[1])
-            q3w = _wrap_into(q3, lo[2], hi[2])
-            if q1w is None or q2w is None or q3w is None:
-                continue
-            singular = s5_abs < WRIST_SINGULAR
-            for flip in (1.0,) if singular else (1.0, -1.0):  # the flips coincide when singular
-                if singular:
-                    q4 = 0.0
-                    q5 = 0.0 if m00 > 0 else math.pi
-                    q6 = math.atan2((1.0 if m00 > 0 else -1.0) * m21, m11)
-                else:
-                    q5 = math.atan2(flip * s5_abs, m00)
-                    q4 = math.atan2(flip * m10, -flip * m20)
-                    q6 = math.atan2(flip * m01, flip * m02)
-                q4w = _wrap_into(q4, lo[3], hi[3])
-                q5w = _wrap_into(q5, lo[4], hi[4])
-                q6w = _wrap_into(q6, lo[5], hi[5])
-                if q4w is not None and q5w is not None and q6w is not None:
-                    out.append([q1w, q2w, q3w, q4w, q5w, q6w])
-    return out
-
-
-# --------------------------------------------------------------------------- nearest
-def _best_twin(value: float, ref: float, lo: float, hi: float) -> float:
-    """The 2 pi twin of ``value`` inside [lo, hi] closest to ``ref``."""
-    best, best_d = value, math.inf
-    k0 = round((ref - value) / TWO_PI)
-    for k in (k0 - 1, k0, k0 + 1):
-        v = value + k * TWO_PI
-        if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK and abs(v - ref) < best_d:
-            best, best_d = v, abs(v - ref)
-    return best
 
 
 def _nearest(T: npt.ArrayLike, q_ref: npt.ArrayLike, g: Geometry) -> FloatArray:
     """:meth:`Kinematics.nearest` with the geometry ``g``."""
-    Ta = check_pose(T)
-    if Ta.ndim != 2:
-        raise ValueError(f"nearest takes one pose (4, 4), got {Ta.shape}")
-    ref = np.asarray(q_ref, dtype=np.float64)
-    if ref.shape != (6,):
-        raise ValueError(f"q_ref must have shape (6,), got {ref.shape}")
-    ref_l = ref.tolist()
-    if not all(math.isfinite(v) for v in ref_l):
-        raise ValueError("q_ref contains NaN or inf")
-    lo, hi = g.lower_list, g.upper_list
-    inv_v2 = g.inv_v2_list
-    best: list[float] | None = None
-    best_cost = math.inf
-    for cand in _solutions_scalar(Ta, g):
-        if abs(math.sin(cand[4])) < 1e-7:  # wrist straight: keep q4, move q6 by the same
-            shift = ref_l[3] - cand[3]
-            cand[3] = ref_l[3]
-            cand[5] = cand[5] - shift if math.cos(cand[4]) > 0 else cand[5] + shift
-            if not (lo[5] - LIMIT_SLACK <= cand[5] <= hi[5] + LIMIT_SLACK):
-                w6 = _wrap_into(cand[5], lo[5], hi[5])
-                if w6 is None:
-                    continue
-                cand[5] = w6
-        for j in (0, 3, 5):
-            cand[j] = _best_twin(cand[j], ref_l[j], lo[j], hi[j])
-        cost = 0.0
-        for j in range(6):
-            d = cand[j] - ref_l[j]
-            cost += d * d * inv_v2[j]
-        if cost < best_cost:
-            best, best_cost = cand, cost
-    if best is None:
-        raise UnreachablePoseError(_why_unreachable(Ta, g))
-    return np.array(best, dtype=np.float64)
+    if type(T) is not np.ndarray or T.shape != (4, 4):
+        T = check_pose(T)
+        if T.ndim != 2:
+            raise ValueError(f"nearest takes one pose (4, 4), got {T.shape}")
+    best = nearest_one(T, q_ref, g)
+    if not best:
+        raise UnreachablePoseError(_why_unreachable(np.asarray(T, dtype=np.float64), g))
+    return np.array(best)
 
 
 def _why_unreachable(T: FloatArray, g: Geometry) -> str:
@@ -407,7 +312,7 @@ def _why_unreachable(T: FloatArray, g: Geometry) -> str:
         if np.isnan(row[0]):
             continue
         for jnt in range(6):
-            v = _best_twin(math.remainder(float(row[jnt]), TWO_PI), 0.0, g.lower[jnt], g.upper[jnt])
+            v = best_twin(math.remainder(float(row[jnt]), TWO_PI), 0.0, g.lower[jnt], g.upper[jnt])
             over = max(g.lower[jnt] - v, v - g.upper[jnt])
             if over > LIMIT_SLACK:
                 excess[jnt] = min(excess.get(jnt, math.inf), over)

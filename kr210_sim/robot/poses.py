@@ -47,12 +47,34 @@ def check_q(q: npt.ArrayLike) -> FloatArray:
     return arr
 
 
-def _check_pose_scalar(arr: FloatArray) -> None:
-    """:func:`check_pose` for one (4, 4) pose, in pure Python (a few microseconds)."""
-    (a, b, c, px), (d, e, f, py), (g, h, k, pz), bottom = arr.tolist()
-    if not math.isfinite(a + b + c + d + e + f + g + h + k + px + py + pz + sum(bottom)):
+def check_pose_flat(v: list[float]) -> None:
+    """:func:`check_pose` for one pose given as its 16 entries row by row, in pure Python (under
+    a microsecond: the single-pose IK reads a pose once, with one ``tolist``).
+
+    A pose that passes every check in one expression returns at once; any other pose goes
+    through the checks one by one, so that the message names the first that fails.
+    """
+    a, b, c, px, d, e, f, py, g, h, k, pz, b0, b1, b2, b3 = v
+    # NaN fails every comparison and inf fails the norms, so a pose that passes is finite
+    # (its translation is checked on its own).
+    if (
+        -ORTHO_TOL <= a * a + d * d + g * g - 1.0 <= ORTHO_TOL
+        and -ORTHO_TOL <= b * b + e * e + h * h - 1.0 <= ORTHO_TOL
+        and -ORTHO_TOL <= c * c + f * f + k * k - 1.0 <= ORTHO_TOL
+        and -ORTHO_TOL <= a * b + d * e + g * h <= ORTHO_TOL
+        and -ORTHO_TOL <= a * c + d * f + g * k <= ORTHO_TOL
+        and -ORTHO_TOL <= b * c + e * f + h * k <= ORTHO_TOL
+        and b0 == 0.0
+        and b1 == 0.0
+        and b2 == 0.0
+        and b3 == 1.0
+        and a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) >= 0
+        and math.isfinite(px + py + pz)
+    ):
+        return
+    if not math.isfinite(a + b + c + d + e + f + g + h + k + px + py + pz + (b0 + b1 + b2 + b3)):
         raise ValueError("pose contains NaN or inf")
-    if bottom != [0.0, 0.0, 0.0, 1.0]:
+    if b0 != 0.0 or b1 != 0.0 or b2 != 0.0 or b3 != 1.0:
         raise ValueError("pose bottom row must be [0, 0, 0, 1]")
     err = max(
         abs(a * a + d * d + g * g - 1.0),
@@ -66,6 +88,11 @@ def _check_pose_scalar(arr: FloatArray) -> None:
         raise ValueError(f"pose rotation is not orthonormal (|R^T R - I| = {err:.2e})")
     if a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0:
         raise ValueError("pose rotation is a reflection (det R = -1)")
+
+
+def _check_pose_scalar(arr: FloatArray) -> None:
+    """:func:`check_pose` for one (4, 4) pose, in pure Python."""
+    check_pose_flat(arr.ravel().tolist())
 
 
 def check_pose(T: npt.ArrayLike) -> FloatArray:

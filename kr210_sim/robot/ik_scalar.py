@@ -1,0 +1,446 @@
+"""The single-pose path of the closed-form IK: one pose in pure ``math`` on Python floats.
+
+:func:`inverse_one` and :func:`nearest_one` are :meth:`Kinematics.inverse` and
+:meth:`Kinematics.nearest` for one (4, 4) pose. They use the formulas of the batch path
+(``kinematics._branches`` and ``_fit_limits``), written for a single pose without numpy's
+per-call cost: the pose is read with one ``tolist``, every constant the formulas need is
+computed once per geometry (:func:`constants`), a joint whose range holds all of (-pi, pi] is
+never wrapped, the result is packed into its array with :mod:`struct`, and ``nearest`` skips the
+wrist of an arm branch whose first three joints alone already cost more than the best solution
+found (the cost only grows with each joint). The arithmetic is the batch path's, operation by
+operation: the results are the same floats as the path they replace (a test compares both paths
+with the batch path on random, singular, limit and unreachable poses).
+
+Angles in [rad], lengths in [m].
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from math import acos, atan2, cos, hypot, isfinite, sin
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.robot.description import Geometry
+from kr210_sim.robot.poses import check_pose_flat
+
+FloatArray = npt.NDArray[np.float64]
+TWO_PI = 2.0 * math.pi
+PI = math.pi
+HALF_PI = math.pi / 2.0
+#: |sin q5| below which the wrist counts as straight (singular).
+WRIST_SINGULAR = 1e-9
+#: Slack on the joint limits when checking solutions [rad].
+LIMIT_SLACK = 1e-9
+#: |sin q5| below which ``nearest`` keeps q4 at the reference's value.
+NEAREST_STRAIGHT = 1e-7
+#: A twin nearer the reference than this [rad] is the nearest of all (the others are > pi away).
+_NEAR = math.pi - 1e-6
+_F64 = np.dtype(np.float64)
+#: Packers of k solutions (k = 1 ... 8) into an array's buffer.
+_PACK = [struct.Struct(f"{6 * k}d").pack_into for k in range(9)]
+_CACHE: dict[int, tuple[Geometry, tuple[Any, ...]]] = {}
+
+
+def wrap_into(v: float, lo: float, hi: float) -> float | None:
+    """``v`` wrapped to (-pi, pi] and shifted by 2 pi into [lo, hi]; None if impossible."""
+    if -math.pi < v <= math.pi and lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
+        return v
+    v = math.remainder(v, TWO_PI)
+    if v < lo - LIMIT_SLACK:
+        v += TWO_PI
+    elif v > hi + LIMIT_SLACK:
+        v -= TWO_PI
+    if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK:
+        return v
+    return None
+
+
+def best_twin(value: float, ref: float, lo: float, hi: float) -> float:
+    """The 2 pi twin of ``value`` inside [lo, hi] closest to ``ref``."""
+    best, best_d = value, math.inf
+    k0 = round((ref - value) / TWO_PI)
+    for k in (k0 - 1, k0, k0 + 1):
+        v = value + k * TWO_PI
+        if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK and abs(v - ref) < best_d:
+            best, best_d = v, abs(v - ref)
+    return best
+
+
+def constants(g: Geometry) -> tuple[Any, ...]:
+    """The floats the single-pose formulas need, computed once per geometry.
+
+    Returns:
+        (dg, d0, h1, a1, a2, L, phi, a2 * a2, L * L, 2 a2 L, lower, upper, lower - slack,
+        upper + slack, flags, inv_v2), ``inv_v2`` = 1 / v_max^2. ``flags`` for joints 1, 4, 5
+        and 6: the range holds all of [-pi, pi] (an atan2 there needs no wrap); for joints 2
+        and 3: the range lies inside [-pi, pi] (an angle in (-pi, pi] outside it cannot be
+        shifted in).
+    """
+    hit = _CACHE.get(id(g))
+    if hit is not None and hit[0] is g:
+        return hit[1]
+    L, a2 = g.forearm, g.a2
+    lo, hi = tuple(g.lower_list), tuple(g.upper_list)
+    lo_s = tuple(v - LIMIT_SLACK for v in lo)
+    hi_s = tuple(v + LIMIT_SLACK for v in hi)
+    wide = [lo_s[j] <= -math.pi and hi_s[j] >= math.pi for j in range(6)]
+    inner = [lo_s[j] > -math.pi + 1e-6 and hi_s[j] < math.pi - 1e-6 for j in range(6)]
+    flags = (wide[0], inner[1], inner[2], wide[3], wide[4], wide[5])
+    c = (g.dg, g.d0, g.h1, g.a1, a2, L, g.forearm_angle, a2 * a2, L * L, 2.0 * a2 * L,
+         lo, hi, lo_s, hi_s, flags, tuple(g.inv_v2_list))  # fmt: skip
+    if len(_CACHE) > 64:  # descriptions made in a loop: keep the cache small
+        _CACHE.clear()
+    _CACHE[id(g)] = (g, c)
+    return c
+
+
+def pose_flat(T: Any) -> list[float]:
+    """The 16 entries of one pose (4, 4), row by row, checked as ``poses.check_pose`` does.
+
+    Raises:
+        ValueError: On NaN or inf, a bad bottom row, a rotation that is not orthonormal or is a
+            reflection.
+    """
+    if type(T) is not np.ndarray or T.dtype is not _F64:
+        T = np.asarray(T, dtype=np.float64)
+    flat: list[float] = T.ravel().tolist()
+    check_pose_flat(flat)
+    return flat
+
+
+def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
+    """Every branch of one pose inside the limits: 6 k floats, the k solutions in the batch
+    path's order (shoulder front/back x elbow +/- x wrist flip +/-).
+
+    Args:
+        flat: The pose's 16 entries, row by row (:func:`pose_flat`).
+        c: :func:`constants` of the geometry.
+    """
+    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz = flat[:12]
+    dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, _ = c
+    lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
+    hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
+    wide1, inner2, inner3, wide4, wide5, wide6 = flags
+    wx, wy, wz = px - dg * r00, py - dg * r10, pz - dg * r20
+    base_q1 = atan2(wy, wx)
+    rho = hypot(wx, wy)
+    zz = wz - d0 - h1
+    out: list[float] = []
+    for back in (False, True):
+        if back:
+            q1 = base_q1 + PI
+            x = -rho - a1
+        else:
+            q1 = base_q1
+            x = rho - a1
+        cos_d = (x * x + zz * zz - a2sq - Lsq) / den
+        if cos_d > 1.0:
+            if cos_d > 1.0 + 1e-12:
+                continue
+            cos_d = 1.0
+        elif cos_d < -1.0:
+            if cos_d < -1.0 - 1e-12:
+                continue
+            cos_d = -1.0
+        q1w = q1
+        if not (-PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
+            w1w = wrap_into(q1, lo[0], hi[0])
+            if w1w is None:
+                continue
+            q1w = w1w
+        rows = False
+        ac = acos(cos_d)
+        A = atan2(zz, x)
+        B = atan2(L * sin(ac), a2 + L * cos(ac))
+        for elbow in (1.0, -1.0) if abs(cos_d) < 1.0 else (1.0,):
+            q2 = HALF_PI - (A - elbow * B)
+            q2w = q2
+            if not (-PI < q2 <= PI and lo2 <= q2 <= hi2):
+                if inner2 and -PI < q2 <= PI:  # no 2 pi shift brings it inside
+                    continue
+                w2w = wrap_into(q2, lo[1], hi[1])
+                if w2w is None:
+                    continue
+                q2w = w2w
+            q3 = -(elbow * ac) - phi - HALF_PI
+            q3w = q3
+            if not (-PI < q3 <= PI and lo3 <= q3 <= hi3):
+                if inner3 and -PI < q3 <= PI:
+                    continue
+                w3w = wrap_into(q3, lo[2], hi[2])
+                if w3w is None:
+                    continue
+                q3w = w3w
+            if not rows:  # rows of Rz(q1)^T R, once per shoulder
+                rows = True
+                c1, s1 = cos(q1), sin(q1)
+                t00, t01, t02 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
+                m10, m11 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11
+            # R3_6 = Ry(q2 + q3)^T Rz(q1)^T R: the entries the wrist angles need
+            q23 = q2 + q3
+            c23, s23 = cos(q23), sin(q23)
+            m00 = t00 * c23 - r20 * s23
+            m20 = t00 * s23 + r20 * c23
+            s5 = hypot(m10, m20)
+            if s5 < WRIST_SINGULAR:  # the flips coincide: one solution, with q4 = 0
+                m21 = t01 * s23 + r21 * c23
+                v5, v6 = (0.0, atan2(m21, m11)) if m00 > 0 else (PI, atan2(-m21, m11))
+                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                    v5w = wrap_into(v5, lo[4], hi[4])
+                    if v5w is None:
+                        continue
+                    v5 = v5w
+                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                    v6w = wrap_into(v6, lo[5], hi[5])
+                    if v6w is None:
+                        continue
+                    v6 = v6w
+                v4 = 0.0
+                if not (wide4 or lo4 <= 0.0 <= hi4):
+                    v4w = wrap_into(0.0, lo[3], hi[3])
+                    if v4w is None:
+                        continue
+                    v4 = v4w
+                out += (q1w, q2w, q3w, v4, v5, v6)
+                continue
+            m01 = t01 * c23 - r21 * s23
+            m02 = t02 * c23 - r22 * s23
+            q5 = atan2(s5, m00)
+            for flip in (1.0, -1.0):
+                v5 = q5 if flip > 0.0 else -q5
+                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                    v5w = wrap_into(v5, lo[4], hi[4])
+                    if v5w is None:
+                        continue
+                    v5 = v5w
+                if flip > 0.0:
+                    v4, v6 = atan2(m10, -m20), atan2(m01, m02)
+                else:
+                    v4, v6 = atan2(-m10, m20), atan2(-m01, -m02)
+                if not (wide4 or (-PI < v4 and lo4 <= v4 <= hi4)):
+                    v4w = wrap_into(v4, lo[3], hi[3])
+                    if v4w is None:
+                        continue
+                    v4 = v4w
+                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                    v6w = wrap_into(v6, lo[5], hi[5])
+                    if v6w is None:
+                        continue
+                    v6 = v6w
+                out += (q1w, q2w, q3w, v4, v5, v6)
+    return out
+
+
+def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) -> list[float]:
+    """The solution of one pose closest in time to ``ref``: the formulas of :func:`solutions`,
+    searched branch and bound.
+
+    Every branch, with joints 1, 4 and 6 at their 2 pi twins inside the limits closest to
+    ``ref``, costs sum(((q - ref) / v_max)^2); the least cost wins, the first in branch order
+    among equals. Each joint only adds to the cost, so the shoulders are taken cheapest q1
+    first, in each the elbows cheapest q1..q3 first, and a shoulder or arm that alone costs more
+    than the best solution so far is not worked out further. At |sin q5| < 1e-7, q4 is kept
+    at ``ref[3]`` and q6 moved by the same.
+
+    Args:
+        flat: The pose's 16 entries, row by row (:func:`pose_flat`).
+        c: :func:`constants` of the geometry.
+        ref: The reference joint state [rad], six floats.
+
+    Returns:
+        The six joints [rad]; empty when no solution lies inside the limits.
+    """
+    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz = flat[:12]
+    dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, w = c
+    lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
+    hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
+    wide1, inner2, inner3, wide4, wide5, wide6 = flags
+    f1, f2, f3, f4, f5, f6 = ref
+    w1, w2, w3, w4, w5, w6 = w
+    wx, wy, wz = px - dg * r00, py - dg * r10, pz - dg * r20
+    base_q1 = atan2(wy, wx)
+    rho = hypot(wx, wy)
+    zz = wz - d0 - h1
+    # the shoulders: (cost of q1, 0 front / 1 back, q1 as returned, q1 raw)
+    shoulders: list[tuple[float, int, float, float]] = []
+    for back in (0, 1):
+        q1 = base_q1 + PI if back else base_q1
+        q1w = q1
+        if not (-PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
+            w1w = wrap_into(q1, lo[0], hi[0])
+            if w1w is None:
+                continue
+            q1w = w1w
+        t = q1w + round((f1 - q1w) / TWO_PI) * TWO_PI
+        d = t - f1
+        if not (-_NEAR < d < _NEAR and lo1 <= t <= hi1):
+            t = best_twin(q1w, f1, lo[0], hi[0])
+            d = t - f1
+        shoulders.append((d * d * w1, back, t, q1))
+    if len(shoulders) == 2 and shoulders[1][0] < shoulders[0][0]:
+        shoulders.reverse()
+    best: list[float] = []
+    best_cost, best_key = math.inf, 8
+    for cost1, back, t1, q1 in shoulders:
+        if cost1 > best_cost:
+            break
+        x = -rho - a1 if back else rho - a1
+        cos_d = (x * x + zz * zz - a2sq - Lsq) / den
+        if cos_d > 1.0:
+            if cos_d > 1.0 + 1e-12:
+                continue
+            cos_d = 1.0
+        elif cos_d < -1.0:
+            if cos_d < -1.0 - 1e-12:
+                continue
+            cos_d = -1.0
+        ac = acos(cos_d)
+        A = atan2(zz, x)
+        B = atan2(L * sin(ac), a2 + L * cos(ac))
+        # the arms of this shoulder: (cost of q1..q3, 0 elbow + / 1 elbow -, q2, q3, q2 + q3)
+        arms: list[tuple[float, bool, float, float, float]] = []
+        for elbow in (1.0, -1.0) if abs(cos_d) < 1.0 else (1.0,):
+            q2 = HALF_PI - (A - elbow * B)
+            q2w = q2
+            if not (-PI < q2 <= PI and lo2 <= q2 <= hi2):
+                if inner2 and -PI < q2 <= PI:
+                    continue
+                w2w = wrap_into(q2, lo[1], hi[1])
+                if w2w is None:
+                    continue
+                q2w = w2w
+            q3 = -(elbow * ac) - phi - HALF_PI
+            q3w = q3
+            if not (-PI < q3 <= PI and lo3 <= q3 <= hi3):
+                if inner3 and -PI < q3 <= PI:
+                    continue
+                w3w = wrap_into(q3, lo[2], hi[2])
+                if w3w is None:
+                    continue
+                q3w = w3w
+            d = q2w - f2
+            cost = cost1 + d * d * w2
+            d = q3w - f3
+            cost += d * d * w3
+            arms.append((cost, elbow < 0.0, q2w, q3w, q2 + q3))
+        if len(arms) == 2 and arms[1][0] < arms[0][0]:
+            arms.reverse()
+        rows = False
+        for cost3, lower, q2w, q3w, q23 in arms:
+            if cost3 > best_cost:
+                break
+            if not rows:
+                rows = True
+                c1, s1 = cos(q1), sin(q1)
+                t00, t01, t02 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
+                m10, m11 = -s1 * r00 + c1 * r10, -s1 * r01 + c1 * r11
+            c23, s23 = cos(q23), sin(q23)
+            m00 = t00 * c23 - r20 * s23
+            m20 = t00 * s23 + r20 * c23
+            s5 = hypot(m10, m20)
+            singular = s5 < WRIST_SINGULAR
+            if singular:
+                m21 = t01 * s23 + r21 * c23
+            else:
+                m01 = t01 * c23 - r21 * s23
+                m02 = t02 * c23 - r22 * s23
+                q5 = atan2(s5, m00)
+            # the flip with q5 on the reference's side first: the other then often costs more
+            for flip in (0,) if singular else (1, -1) if f5 >= 0.0 else (-1, 1):
+                if flip == 0:  # the flips coincide: q4 = 0
+                    v5 = 0.0 if m00 > 0 else PI
+                else:
+                    v5 = q5 if flip > 0 else -q5
+                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                    v5w = wrap_into(v5, lo[4], hi[4])
+                    if v5w is None:
+                        continue
+                    v5 = v5w
+                d = v5 - f5
+                c5 = d * d * w5
+                if cost3 + c5 > best_cost:  # a lower bound of the cost, in floating point too
+                    continue
+                if flip == 0:
+                    v4, v6 = 0.0, (atan2(m21, m11) if m00 > 0 else atan2(-m21, m11))
+                elif flip > 0:
+                    v4, v6 = atan2(m10, -m20), atan2(m01, m02)
+                else:
+                    v4, v6 = atan2(-m10, m20), atan2(-m01, -m02)
+                if not (wide4 or (-PI < v4 and lo4 <= v4 <= hi4)):
+                    v4w = wrap_into(v4, lo[3], hi[3])
+                    if v4w is None:
+                        continue
+                    v4 = v4w
+                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                    v6w = wrap_into(v6, lo[5], hi[5])
+                    if v6w is None:
+                        continue
+                    v6 = v6w
+                if -NEAREST_STRAIGHT < sin(v5) < NEAREST_STRAIGHT:  # keep q4, move q6 by the same
+                    shift = f4 - v4
+                    v4 = f4
+                    v6 = v6 - shift if cos(v5) > 0 else v6 + shift
+                    if not (lo6 <= v6 <= hi6):
+                        v6w = wrap_into(v6, lo[5], hi[5])
+                        if v6w is None:
+                            continue
+                        v6 = v6w
+                t = v4 + round((f4 - v4) / TWO_PI) * TWO_PI
+                d = t - f4
+                if not (-_NEAR < d < _NEAR and lo4 <= t <= hi4):
+                    t = best_twin(v4, f4, lo[3], hi[3])
+                    d = t - f4
+                v4 = t
+                cost = cost3 + d * d * w4 + c5
+                if cost > best_cost:
+                    continue
+                t = v6 + round((f6 - v6) / TWO_PI) * TWO_PI
+                d = t - f6
+                if not (-_NEAR < d < _NEAR and lo6 <= t <= hi6):
+                    t = best_twin(v6, f6, lo[5], hi[5])
+                    d = t - f6
+                v6 = t
+                cost += d * d * w6
+                key = 4 * back + 2 * lower + (flip < 0)
+                if cost < best_cost or (cost == best_cost and key < best_key):
+                    best_cost, best_key = cost, key
+                    best = [t1, q2w, q3w, v4, v5, v6]
+    return best
+
+
+def inverse_one(T: Any, g: Geometry) -> FloatArray:
+    """:meth:`Kinematics.inverse` of one pose: (k, 6) [rad], k = 0 ... 8."""
+    out = solutions(pose_flat(T), constants(g))
+    k = len(out) // 6
+    sol = np.empty((k, 6))
+    if k:
+        _PACK[k](sol.data, 0, *out)
+    return sol
+
+
+def reference(q_ref: Any) -> list[float]:
+    """``q_ref`` as six finite floats [rad].
+
+    Raises:
+        ValueError: On a wrong shape, NaN or inf.
+    """
+    if type(q_ref) is not np.ndarray or q_ref.dtype is not _F64:
+        q_ref = np.asarray(q_ref, dtype=np.float64)
+    if q_ref.shape != (6,):
+        raise ValueError(f"q_ref must have shape (6,), got {q_ref.shape}")
+    ref: list[float] = q_ref.tolist()
+    total = ref[0] + ref[1] + ref[2] + ref[3] + ref[4] + ref[5]
+    if total - total != 0.0 and not all(isfinite(v) for v in ref):
+        raise ValueError("q_ref contains NaN or inf")
+    return ref
+
+
+def nearest_one(T: Any, q_ref: Any, g: Geometry) -> list[float]:
+    """:meth:`Kinematics.nearest` of one pose: the six joints [rad], empty when the pose has no
+    solution inside the limits."""
+    flat = pose_flat(T)
+    return nearest_solution(flat, constants(g), reference(q_ref))
