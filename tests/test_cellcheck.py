@@ -142,18 +142,19 @@ def test_drop_spots_are_judged_from_where_a_carry_starts() -> None:
 def test_no_cylinder_goes_to_a_drop_spot_that_never_reaches_the_floor() -> None:
     """The beam over the bin's middle row: check served every slot with the carry to drop 1,
     where a cylinder lands on the beam (run 6/10 missed_bin, evaluate's first cycles 0/6). The
-    slot rows carry to drop 4, the first that reaches the floor, and so does a run's first
-    cycle."""
+    slot rows carry to drop 7, the first a cylinder falls clear of the beam from (it tumbles
+    onto it from drops 4-6), and so does a run's first cycle."""
     model = compile_cell(parse_cell(_cell(BEAM, **{'name = "published"': 'name = "beam"'})))
     result = check_cell(model)
-    assert [r.drop_spot for r in result.slots] == [4] * 9 and all(r.served for r in result.slots)
-    assert [r.served for r in result.drops] == [False] * 3 + [True] * 6
+    assert [r.drop_spot for r in result.slots] == [7] * 9 and all(r.served for r in result.slots)
+    assert [r.served for r in result.drops] == [False] * 6 + [True] * 3
     assert result.drops[0].detail.startswith("a cylinder dropped here lands on obstacle_1")
+    assert result.drops[3].detail.startswith("a cylinder dropped here strikes obstacle_1")
     runner = Runner(RunConfig(cycles=1), model=model)
-    assert runner.drop_spots == (3, 4, 5, 6, 7, 8)
+    assert runner.drop_spots == (6, 7, 8)
     r = runner.run_cycle(1, 5)
     assert r.success, r.detail
-    assert runner.plan is not None and runner.plan.drop_spot == 3
+    assert runner.plan is not None and runner.plan.drop_spot == 6
 
 
 def test_run_refuses_a_bin_under_a_lid_in_one_line(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from random_cells import random_cell
 
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.layout import CellLayout
@@ -14,6 +15,7 @@ from kr210_sim.plan.landing import (
     drop_heights,
     landing_blocker,
     landing_blockers,
+    tumble_band,
     usable_drop_spots,
 )
 from kr210_sim.util.paths import SCENE_PATH
@@ -44,19 +46,50 @@ def test_a_crate_in_the_bin_stops_every_cylinder() -> None:
 def test_a_box_over_a_corner_of_the_footprint_stops_it() -> None:
     """A 6 cm box above the rim whose corner reaches 42 mm from drop spot 1's centre (inside
     the 50 mm cylinder's footprint, on the diagonal): the five rays the check cast (the centre
-    and four points on the rim, on the axes) all missed it, the rings do not."""
+    and four points on the rim, on the axes) all missed it, the rings do not. It also stands
+    in the band behind drop spot 4 that a cylinder released there tumbles through."""
     model = compile_cell(parse_cell(_with_box((0.06, 2.56, 1.15), (0.06, 0.06, 0.1))))
     blockers = landing_blockers(model)
     assert blockers[0] == (
         "a cylinder dropped here lands on obstacle_1 at z = 1.20 m, above the bin's floor (0.05 m)"
     )
-    assert usable_drop_spots(blockers) == (1, 2, 3, 4, 5, 6, 7, 8)
+    assert blockers[3].startswith("a cylinder dropped here strikes obstacle_1 at z = 1.20 m")
+    assert usable_drop_spots(blockers) == (1, 2, 4, 5, 6, 7, 8)
 
 
 def test_a_beam_over_part_of_the_bin_stops_the_spots_below_it() -> None:
-    """The red team's beam: 1.2 m across the bin's middle row, 10 cm above the rim."""
+    """The red team's beam: 1.2 m across the bin's middle row, 10 cm above the rim. Spots 1-3
+    are under it; 4-6, 0.12 m beyond it, are in reach of a tumbling cylinder (of 9 cycles
+    there, the 3 in which the cylinder touched the palm tumbled onto the beam)."""
     model = compile_cell(parse_cell(_with_box((0.0, 2.5, 1.1), (1.2, 0.2, 0.1))))
-    assert usable_drop_spots(landing_blockers(model)) == (3, 4, 5, 6, 7, 8)
+    blockers = landing_blockers(model)
+    assert usable_drop_spots(blockers) == (6, 7, 8)
+    assert blockers[3] == (
+        "a cylinder dropped here strikes obstacle_1 at z = 1.15 m, above the bin's rim, as it "
+        "tumbles (up to 0.18 m back towards the robot)"
+    )
+
+
+def test_a_beam_behind_the_one_spot_left_stops_it_too() -> None:
+    """A cell drawn at random (seed 5007 of ``tests/random_cells.py``): a beam over most of a
+    narrow bin, 9 cm beyond the end of which drop spot 9 stood clear of the footprint's rays.
+    Every cycle carried there and the cylinder, tumbling back onto the beam, was thrown a metre
+    out of the bin (missed_bin, 3 of 3, while check served every slot)."""
+    blockers = landing_blockers(compile_cell(parse_cell(random_cell(5007).text)))
+    assert usable_drop_spots(blockers) == ()
+    assert blockers[8] == (
+        "a cylinder dropped here strikes obstacle_1 at z = 0.85 m, above the bin's rim, as it "
+        "tumbles (up to 0.22 m back towards the robot)"
+    )
+
+
+def test_the_tumble_band_lies_behind_the_spot() -> None:
+    """The published target: back to 5 cm of drift and the 0.135 m half-diagonal, 0.07 m to
+    either side, rays 2 cm apart at most."""
+    band = np.array(tumble_band(0.05, 0.25))
+    assert band[:, 0].min() == pytest.approx(-0.05 - np.hypot(0.05, 0.125))
+    assert band[:, 0].max() == 0.0 and np.abs(band[:, 1]).max() == pytest.approx(0.07)
+    assert np.diff(np.unique(band[:, 0])).max() <= 0.02 + 1e-12
 
 
 @pytest.mark.parametrize(("upright", "height"), [(True, 0.30), (False, 0.15)])

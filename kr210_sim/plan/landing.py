@@ -5,6 +5,14 @@ stands in its way above the floor (a beam over the bin, a box in it), it lands o
 and the cycle ends ``missed_bin``, however well it was carried. :func:`landing_blockers` says
 so for every drop spot, from rays cast straight down against the cell's colliders over the
 cylinder's whole footprint and a margin round it; :func:`usable_drop_spots` keeps the others.
+
+A released cylinder does not always fall straight: as the fingers open it often drifts back
+towards the robot into the gripper's palm and tumbles end over end in the drop spot's radial
+plane (the published cell: the centre 5 cm back, the ends up to 0.186 m back of the spot and
+0.10 m beyond it above the rim, 0.06 m to the sides). What stands above the rim in the band
+it tumbles through behind the spot (:func:`tumble_band`) is struck on the way down: a beam
+there threw a cylinder a metre out of a narrow bin. So the rays also cover that band, and a
+hit above the rim blocks the spot too.
 The runner sends cylinders only to usable spots (:class:`~kr210_sim.sim.runner.Runner`),
 ``check`` refuses the rest, and ``run`` refuses a cell with none.
 """
@@ -30,6 +38,11 @@ LANDING_MARGIN = 0.02
 #: half the radius, the rim, the rim plus :data:`LANDING_MARGIN` (and one ray at the centre);
 #: neighbouring rays are about 2 cm apart for a 0.05 m cylinder.
 RINGS = ((8, 0.5, 0), (16, 1.0, 0), (24, 1.0, 1))
+#: How far a released cylinder's centre drifts back towards the robot as it tumbles [m]
+#: (measured: 4-6 cm in the published cell).
+TUMBLE_DRIFT = 0.05
+#: Spacing of the rays over the tumble's band [m].
+TUMBLE_STEP = 0.02
 #: The geom groups rays are cast against: all but the drawn meshes' (group 2, which collide
 #: with nothing and cost the rays four fifths of their time); they stop at whatever a falling
 #: cylinder would collide with.
@@ -44,6 +57,19 @@ def _footprint(radius: float) -> list[tuple[float, float]]:
         angles = 2.0 * math.pi * np.arange(n) / n
         points += [(r * math.cos(a), r * math.sin(a)) for a in angles]
     return points
+
+
+def tumble_band(radius: float, length: float) -> list[tuple[float, float]]:
+    """Ray offsets (u, v) [m] over the band a tumbling cylinder sweeps behind its drop spot, in
+    the spot's radial frame (u outwards from the joint_1 axis, v to its left): u from 0 back to
+    :data:`TUMBLE_DRIFT` plus the reach of an end round the centre (the half-diagonal of the
+    cylinder's section), v across the footprint and :data:`LANDING_MARGIN`; about
+    :data:`TUMBLE_STEP` apart. The published target: u to -0.185 m, v within +-0.07 m."""
+    back = TUMBLE_DRIFT + math.hypot(radius, length / 2.0)
+    side = radius + LANDING_MARGIN
+    us = np.linspace(-back, 0.0, max(2, math.ceil(back / TUMBLE_STEP) + 1))
+    vs = np.linspace(-side, side, max(2, math.ceil(2 * side / TUMBLE_STEP) + 1))
+    return [(float(u), float(v)) for u in us for v in vs]
 
 
 def landing_blockers(
@@ -65,18 +91,55 @@ def landing_blockers(
     if model.nkey:
         mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
-    floor = layout.bin.floor_top
+    floor, rim = layout.bin.floor_top, layout.bin.rim
+    stops = _stops(model, h, targets=False)
+    tumbles = _tumbles(model, data, layout, stops)
     out = []
-    for z, geom in _landings(model, data, layout, _stops(model, h, targets=False)):
+    for (z, geom), (zt, gt) in zip(_landings(model, data, layout, stops), tumbles, strict=True):
         blocker = ""
         if geom >= 0 and z > floor + 0.005:
-            part = model.geom(geom).name or model.body(int(model.geom_bodyid[geom])).name
             blocker = (
-                f"a cylinder dropped here lands on {part or 'a geom'} at z = {z:.2f} m, above "
+                f"a cylinder dropped here lands on {_part(model, geom)} at z = {z:.2f} m, above "
                 f"the bin's floor ({floor:.2f} m)"
+            )
+        elif gt >= 0 and zt > rim + 0.005:
+            t = layout.target
+            back = TUMBLE_DRIFT + math.hypot(t.radius, t.length / 2.0)
+            blocker = (
+                f"a cylinder dropped here strikes {_part(model, gt)} at z = {zt:.2f} m, above "
+                f"the bin's rim, as it tumbles (up to {back:.2f} m back towards the robot)"
             )
         out.append(blocker)
     return tuple(out)
+
+
+def _part(model: mujoco.MjModel, geom: int) -> str:
+    """The name of ``geom``, else its body's."""
+    name = model.geom(geom).name or model.body(int(model.geom_bodyid[geom])).name
+    return name or "a geom"
+
+
+def _tumbles(
+    model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, stops: frozenset[int]
+) -> list[tuple[float, int]]:
+    """Per drop spot, the highest first hit [m] of the rays over :func:`tumble_band` among
+    ``stops``, and its geom (-1 when no ray meets any)."""
+    top = layout.bin.rim + 1.0
+    down = np.array([0.0, 0.0, -1.0])
+    hit = np.zeros(1, dtype=np.int32)
+    band = tumble_band(layout.target.radius, layout.target.length)
+    out = []
+    for x, y in layout.drop_spots[:, :2]:
+        a = math.atan2(y, x)
+        c, s = math.cos(a), math.sin(a)
+        best = (-math.inf, -1)
+        for u, v in band:
+            start = np.array([x + u * c - v * s, y + u * s + v * c, top])
+            found = _first_hit(model, data, start, down, stops, hit)
+            if found[0] > best[0]:
+                best = found
+        out.append(best)
+    return out
 
 
 def drop_heights(
