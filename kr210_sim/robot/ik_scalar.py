@@ -1,15 +1,23 @@
 """The single-pose path of the closed-form IK: one pose in pure ``math`` on Python floats.
 
 :func:`inverse_one` and :func:`nearest_one` are :meth:`Kinematics.inverse` and
-:meth:`Kinematics.nearest` for one (4, 4) pose. They use the formulas of the batch path
-(``kinematics._branches`` and ``_fit_limits``), written for a single pose without numpy's
-per-call cost: the pose is read with one ``tolist``, every constant the formulas need is
-computed once per geometry (:func:`constants`), a joint whose range holds all of (-pi, pi] is
-never wrapped, the result is packed into its array with :mod:`struct`, and ``nearest`` skips the
-wrist of an arm branch whose first three joints alone already cost more than the best solution
-found (the cost only grows with each joint). The arithmetic is the batch path's, operation by
-operation: the results are the same floats as the path they replace (a test compares both paths
-with the batch path on random, singular, limit and unreachable poses).
+:meth:`Kinematics.nearest` for one (4, 4) pose: the formulas of the batch path
+(``kinematics._branches`` and ``_fit_limits``) for one pose, without numpy's cost per call
+(about 1 us for each small array an expression makes). What makes them fast:
+
+* the pose is read with one ``tolist`` and checked in one expression
+  (:func:`~kr210_sim.robot.poses.check_pose_flat`);
+* every constant the formulas need is worked out once per geometry (:func:`constants`), with
+  flags that spare the wrap of a joint whose range holds all of [-pi, pi] (joints 4 and 6 of
+  the KR210) and of one that no 2 pi shift can bring into its range (joint 2);
+* the answer is packed into its array with :mod:`struct`;
+* ``nearest`` is searched branch and bound (:func:`nearest_solution`): about one wrist is worked
+  out a pose instead of four when the reference is near a solution.
+
+:func:`solutions` and :func:`nearest_solution` each keep the whole computation in one function:
+split into helpers for the arm and the wrist, the calls and their arguments cost a fifth more.
+The arithmetic is the path's they replace, operation by operation (the same floats on random,
+singular, limit and unreachable poses); tests compare both with the batch path.
 
 Angles in [rad], lengths in [m].
 """
@@ -60,13 +68,21 @@ def wrap_into(v: float, lo: float, hi: float) -> float | None:
 
 
 def best_twin(value: float, ref: float, lo: float, hi: float) -> float:
-    """The 2 pi twin of ``value`` inside [lo, hi] closest to ``ref``."""
+    """The 2 pi twin of ``value`` inside [lo, hi] closest to ``ref`` (the first of k0 - 1, k0,
+    k0 + 1 turns among equals, k0 the nearest in turns); ``value`` if none is inside."""
+    lo -= LIMIT_SLACK
+    hi += LIMIT_SLACK
     best, best_d = value, math.inf
     k0 = round((ref - value) / TWO_PI)
-    for k in (k0 - 1, k0, k0 + 1):
-        v = value + k * TWO_PI
-        if lo - LIMIT_SLACK <= v <= hi + LIMIT_SLACK and abs(v - ref) < best_d:
-            best, best_d = v, abs(v - ref)
+    v = value + (k0 - 1) * TWO_PI
+    if lo <= v <= hi:
+        best, best_d = v, abs(v - ref)
+    v = value + k0 * TWO_PI
+    if lo <= v <= hi and abs(v - ref) < best_d:
+        best, best_d = v, abs(v - ref)
+    v = value + (k0 + 1) * TWO_PI
+    if lo <= v <= hi and abs(v - ref) < best_d:
+        best = v
     return best
 
 
@@ -98,26 +114,12 @@ def constants(g: Geometry) -> tuple[Any, ...]:
     return c
 
 
-def pose_flat(T: Any) -> list[float]:
-    """The 16 entries of one pose (4, 4), row by row, checked as ``poses.check_pose`` does.
-
-    Raises:
-        ValueError: On NaN or inf, a bad bottom row, a rotation that is not orthonormal or is a
-            reflection.
-    """
-    if type(T) is not np.ndarray or T.dtype is not _F64:
-        T = np.asarray(T, dtype=np.float64)
-    flat: list[float] = T.ravel().tolist()
-    check_pose_flat(flat)
-    return flat
-
-
 def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
     """Every branch of one pose inside the limits: 6 k floats, the k solutions in the batch
     path's order (shoulder front/back x elbow +/- x wrist flip +/-).
 
     Args:
-        flat: The pose's 16 entries, row by row (:func:`pose_flat`).
+        flat: The pose's 16 entries, row by row, checked (``check_pose_flat``).
         c: :func:`constants` of the geometry.
     """
     r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz = flat[:12]
@@ -247,7 +249,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     at ``ref[3]`` and q6 moved by the same.
 
     Args:
-        flat: The pose's 16 entries, row by row (:func:`pose_flat`).
+        flat: The pose's 16 entries, row by row, checked (``check_pose_flat``).
         c: :func:`constants` of the geometry.
         ref: The reference joint state [rad], six floats.
 
@@ -275,19 +277,23 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
             if w1w is None:
                 continue
             q1w = w1w
-        t = q1w + round((f1 - q1w) / TWO_PI) * TWO_PI
-        d = t - f1
-        if not (-_NEAR < d < _NEAR and lo1 <= t <= hi1):
-            t = best_twin(q1w, f1, lo[0], hi[0])
-            d = t - f1
-        shoulders.append((d * d * w1, back, t, q1))
+        # a lower bound of q1's cost: its nearest twin, inside the limits or not (with a margin
+        # for the rounding of near ties); the twin inside the limits only if the shoulder is tried
+        d = q1w + round((f1 - q1w) / TWO_PI) * TWO_PI - f1
+        shoulders.append((d * d * w1 * (1.0 - 1e-9), back, q1w, q1))
     if len(shoulders) == 2 and shoulders[1][0] < shoulders[0][0]:
         shoulders.reverse()
     best: list[float] = []
     best_cost, best_key = math.inf, 8
-    for cost1, back, t1, q1 in shoulders:
-        if cost1 > best_cost:
+    for bound1, back, q1w, q1 in shoulders:
+        if bound1 > best_cost:
             break
+        t1 = q1w + round((f1 - q1w) / TWO_PI) * TWO_PI
+        d = t1 - f1
+        if not (-_NEAR < d < _NEAR and lo1 <= t1 <= hi1):
+            t1 = best_twin(q1w, f1, lo[0], hi[0])
+            d = t1 - f1
+        cost1 = d * d * w1
         x = -rho - a1 if back else rho - a1
         cos_d = (x * x + zz * zz - a2sq - Lsq) / den
         if cos_d > 1.0:
@@ -414,7 +420,12 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
 
 def inverse_one(T: Any, g: Geometry) -> FloatArray:
     """:meth:`Kinematics.inverse` of one pose: (k, 6) [rad], k = 0 ... 8."""
-    out = solutions(pose_flat(T), constants(g))
+    if type(T) is not np.ndarray or T.dtype is not _F64:
+        T = np.asarray(T, dtype=np.float64)
+    flat: list[float] = T.ravel().tolist()
+    check_pose_flat(flat)
+    hit = _CACHE.get(id(g))  # constants(g), without the call
+    out = solutions(flat, hit[1] if hit is not None and hit[0] is g else constants(g))
     k = len(out) // 6
     sol = np.empty((k, 6))
     if k:
@@ -442,5 +453,10 @@ def reference(q_ref: Any) -> list[float]:
 def nearest_one(T: Any, q_ref: Any, g: Geometry) -> list[float]:
     """:meth:`Kinematics.nearest` of one pose: the six joints [rad], empty when the pose has no
     solution inside the limits."""
-    flat = pose_flat(T)
-    return nearest_solution(flat, constants(g), reference(q_ref))
+    if type(T) is not np.ndarray or T.dtype is not _F64:
+        T = np.asarray(T, dtype=np.float64)
+    flat: list[float] = T.ravel().tolist()
+    check_pose_flat(flat)
+    ref = reference(q_ref)
+    hit = _CACHE.get(id(g))
+    return nearest_solution(flat, hit[1] if hit is not None and hit[0] is g else constants(g), ref)
