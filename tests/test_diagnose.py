@@ -312,3 +312,42 @@ def test_a_stale_rotation_is_named_when_the_positions_miss_too(cases: list[Case]
     n, _, answered = found[0].text.split()[:3]
     assert int(n) == int(answered) - 1 > 0.7 * len(cases)  # all but the first pose's answer
     assert found[0].text.startswith(f"{n} of {answered} answers have the orientation")
+
+
+def test_a_wrong_gripper_length_is_named_with_the_length_used(cases: list[Case]) -> None:
+    """The wrist centre found 0.453 m behind gripper_link (the fingertips' distance), the
+    orientation right: every answer stops 150 mm short along the gripper's axis."""
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        short = T.copy()
+        short[:3, 3] -= 0.15 * T[:3, 0]
+        try:
+            return kinematics.nearest(short, q)
+        except UnreachablePoseError:
+            return None
+
+    found = diagnose(
+        KIN, check(KIN, UserIk("t:s", solve), cases, io.StringIO()), [c.T for c in cases]
+    )
+    assert found[0].code == "gripper_length"
+    assert "stop 150 mm short of their pose along the gripper's axis" in found[0].text
+    assert "found 0.453 m behind gripper_link, where it is 0.303 m" in found[0].text
+
+
+def test_theta4_to_6_wrong_on_some_poses_only_is_named(cases: list[Case]) -> None:
+    """R0_3.inv("LU") is R0_3's inverse on some poses and garbage on others (sympy's LU pivots on
+    the round-off of R0_3's singular leading 2x2 block): about half the answers miss, each with
+    the wrist centre right."""
+
+    def solve(T: np.ndarray, q: np.ndarray) -> Any:
+        good = kinematics.nearest(T, q)
+        if int(abs(T[0, 3]) * 1000) % 2:
+            return np.r_[good[:3], good[3:] + np.array([0.4, -0.3, 0.2])]
+        return good
+
+    found = diagnose(
+        KIN, check(KIN, UserIk("t:s", solve), cases, io.StringIO()), [c.T for c in cases]
+    )
+    assert found[0].code == "wrist_angles"
+    n = int(found[0].text.split()[0])
+    assert 0.2 * len(cases) < n < 0.8 * len(cases)

@@ -65,3 +65,18 @@ def test_a_straight_line_of_a_ros_form_server_is_walked_on_the_twins() -> None:
     for T, want in zip(poses[1:], samples[1:], strict=True):
         q = ik(T, q)
         assert float(np.max(np.abs(q - want))) < MAX_LINE_STEP / 10
+
+
+def test_answers_turns_away_are_taken_at_their_twin_and_noise_is_not() -> None:
+    """A server keeping each answer near the previous one drifts by turns over a request of
+    unrelated poses (ik-check's); the drift is taken back, a non-number-like 1e300 is not."""
+    T = KIN.forward(Q)
+    drifted = list(Q + np.array([0.0, 0.0, 0.0, 2 * TWO_PI, 0.0, -3 * TWO_PI]))
+    a = assess(KIN, T, Q, drifted, no_q_ref=True)
+    assert a.passed and a.q is not None and a.wrapped == (3, 5)
+    np.testing.assert_allclose(a.q, Q, atol=1e-9)
+    assert not assess(KIN, T, Q, drifted).passed  # ours: two turns outside the limits stays
+    huge = list(Q)
+    huge[5] = 1e300
+    h = assess(KIN, T, Q, huge, no_q_ref=True)
+    assert not h.passed and h.q is not None and h.q[5] == 1e300

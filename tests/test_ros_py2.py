@@ -138,9 +138,17 @@ def test_python_3_files_are_compiled_as_they_are() -> None:
             "end of the line)",
         ),
         (
-            "def f():\n        x = 1\n    return x\n",
-            "IK_server.py line 3: `return x` cannot be read as Python 2 (unindent does not "
-            "match any outer indentation level)",
+            'def f():\n        x = 1\n        print "x"\n    return x\n',
+            "IK_server.py line 4: `return x`: unindent does not match any outer indentation "
+            "level, as under Python 2 (which refused it too: the line is at column 4, the code "
+            "line before at column 8, a tab counting to the next multiple of 8)",
+        ),
+        (  # a tab and 8 spaces: column 16 to Python 2, under a line at column 12
+            'def f(x):\n    print "x"\n    for i in x:\n            y = i\n'
+            "            # the answer\n\t        z = y\n    return z\n",
+            "IK_server.py line 6: `z = y`: unexpected indent, as under Python 2 (which refused it "
+            "too: the line is at column 16, the code line before at column 12, a tab counting "
+            "to the next multiple of 8)",
         ),
     ],
 )

@@ -23,6 +23,8 @@ The mistakes of the original exercise's servers (:mod:`kr210_sim.robot.ros`):
 * ``wrist_angles``: the wrist centre right, the orientation not: theta1-3 are right, theta4-6
   are not (``R0_3`` evaluated at other angles, or theta4-6 read from the wrong entries of
   ``R3_6``, or the other wrist solution's theta4 and theta6 with this one's theta5).
+* ``gripper_length``: the orientation right and the position off by the same distance along
+  the gripper's axis: the wrist centre found with another gripper length than 0.303 m.
 * ``theta3_offset``: the orientation right and the wrist centre off by the same distance on
   every answer: theta3 is off by a constant angle (the correction for the 0.054 m drop with
   the wrong sign is 0.072 rad).
@@ -302,15 +304,13 @@ SAME_DISTANCE = 1e-3
 
 
 def wrist_angles(records: Sequence[dict[str, Any]]) -> Finding | None:
-    """``wrist_angles``: on most answers (at least :data:`FEW`) the wrist centre is right and
-    the orientation is not (see the module doc)."""
+    """``wrist_angles``: on most of the answers that miss (at least :data:`FEW`) the wrist
+    centre is right and the orientation is not (see the module doc)."""
     answered = _answered(records)
-    bad = [  # inside the limits: an answer outside them is named as such
-        r
-        for r in answered
-        if r["within_limits"] and r["wrist_centre_error_m"] <= POSITION_TOL and _wrong_rotation(r)
-    ]
-    if len(bad) < FEW or len(bad) < MAJORITY * len(answered):
+    inside = [r for r in answered if r["within_limits"]]  # those outside are named as such
+    failing = [r for r in inside if _wrong_rotation(r) or r["position_error_m"] > POSITION_TOL]
+    bad = [r for r in failing if r["wrist_centre_error_m"] <= POSITION_TOL and _wrong_rotation(r)]
+    if len(bad) < FEW or len(bad) < MAJORITY * len(failing):
         return None
     worst = max(r["orientation_error_rad"] for r in bad)
     return Finding(
@@ -320,7 +320,43 @@ def wrist_angles(records: Sequence[dict[str, Any]]) -> Finding | None:
         f"{math.degrees(worst):.0f} deg: theta1-3 are right and theta4-6 are not (check that "
         "R0_3 is evaluated at theta1, theta2 and theta3, that R3_6 = R0_3.T * Rrpy with the "
         "gripper correction, and which entries of R3_6 theta4, theta5 and theta6 read; the "
-        "other wrist solution flips the signs of all three)",
+        'other wrist solution flips the signs of all three; R0_3.inv("LU") is not R0_3\'s '
+        "inverse for most poses, its leading 2x2 block being singular: sympy's LU pivots on "
+        "round-off there, as it did in 2017)",
+    )
+
+
+def gripper_length(
+    kin: Kinematics, records: Sequence[dict[str, Any]], poses: Sequence[FloatArray]
+) -> Finding | None:
+    """``gripper_length``: the answers with their orientation right and their position wrong
+    (at least :data:`FEW`) mostly miss it by the same distance along the gripper's axis: the
+    wrist centre was found with another gripper length (see the module doc)."""
+    dg = kin.geometry.dg
+    along = []
+    off = 0
+    for r, T in zip(records, poses, strict=True):
+        if r["q"] is None or _wrong_rotation(r) or r["position_error_m"] <= POSITION_TOL:
+            continue
+        off += 1
+        e = kin.forward(np.asarray(r["q"], dtype=np.float64))[:3, 3] - T[:3, 3]
+        x = T[:3, 0]  # gripper_link's axis: the wrist centre is dg behind it along x
+        a = float(e @ x)
+        if float(np.linalg.norm(e - a * x)) <= POSITION_TOL:
+            along.append(a)
+    if off < FEW or len(along) < MAJORITY * off:
+        return None
+    a = float(np.median(along))
+    if sum(abs(v - a) <= SAME_DISTANCE for v in along) < MAJORITY * off:
+        return None
+    used = dg - a
+    where = "short of" if a < 0 else "past"
+    return Finding(
+        "gripper_length",
+        f"{len(along)} answers with the orientation right stop {1000 * abs(a):.0f} mm {where} "
+        f"their pose along the gripper's axis, the same on each: the wrist centre was found "
+        f"{used:.3f} m behind gripper_link, where it is {dg:.3f} m (d7 = 0.193 + 0.11 in the DH "
+        "table: joint 6 to the gripper's origin)",
     )
 
 
@@ -482,8 +518,9 @@ def diagnose(
             or wrist_angles(records)
         )
         found += [f] if f is not None else []
-        f = theta3_offset(records) if not any(f.code == "wrist_angles" for f in found) else None
-        found += [f] if f is not None else []
+        if not any(f.code == "wrist_angles" for f in found):
+            f = gripper_length(kin, records, poses) or theta3_offset(records)
+            found += [f] if f is not None else []
     found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
     counts = _branch_counts(records)

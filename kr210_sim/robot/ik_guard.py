@@ -48,6 +48,10 @@ ORIENTATION_TOL = 1e-3
 #: randomised); a wrist flip moves joints 4 and 6 by about pi, a 2 pi twin by 2 pi, an elbow or
 #: shoulder flip by tenths of a radian or more. 0.1 rad leaves a 6x margin for correct answers.
 MAX_LINE_STEP = 0.1
+#: Largest angle [rad] taken at its 2 pi twin for an IK never sent ``q_ref`` (a ROS-form
+#: server's answers to one request of unrelated poses drift by turns when it keeps each close
+#: to the previous answer, as it would along MoveIt's paths); past it, rounding is too coarse.
+EVERY_TURN = 1e4
 #: Most poses one batch asks a batch-taking IK for (MoveIt's requests held tens of poses).
 BATCH = 64
 
@@ -172,10 +176,11 @@ def into_limits(
     """Move each angle outside the limits of ``kin``'s robot, but within one turn of them, to its
     2 pi twin inside them (nearest ``q_ref``).
 
-    Angles already inside the limits are kept (unless ``every``: then each angle is taken at its
-    twin inside the limits nearest ``q_ref``, for an IK that was never sent ``q_ref``), and so
-    are angles more than one turn outside (``1e300``: its "twin" would be rounding noise).
-    Returns the new angles and the joints moved.
+    Angles already inside the limits are kept, and so are angles more than one turn outside
+    (``1e300``: its "twin" would be rounding noise). With ``every`` (an IK that was never sent
+    ``q_ref``), each angle within :data:`EVERY_TURN` of zero is taken at its twin inside the
+    limits nearest ``q_ref``, however many turns away it was. Returns the new angles and the
+    joints moved.
     """
     g = kin.geometry
     out = q.copy()
@@ -183,21 +188,20 @@ def into_limits(
     for j in range(6):
         lo, hi = g.lower[j] - LIMIT_SLACK, g.upper[j] + LIMIT_SLACK
         v = float(out[j])
-        inside = lo <= v <= hi
-        if not lo - TWO_PI <= v <= hi + TWO_PI or (inside and not every):
-            continue
-        if inside:  # every: the twin of an angle inside the limits nearest q_ref, if not itself
-            twin = min((v + k * TWO_PI for k in (-1, 0, 1) if lo <= v + k * TWO_PI <= hi),
-                       key=lambda t: abs(t - float(q_ref[j])))  # fmt: skip
-            if twin != v:
-                out[j] = twin
-                moved.append(j)
+        if every:
+            if not abs(v) <= EVERY_TURN:
+                continue
+        elif lo <= v <= hi or not lo - TWO_PI <= v <= hi + TWO_PI:
             continue
         base = v - TWO_PI * math.floor((v - lo) / TWO_PI)  # the twin in [lo, lo + 2 pi)
         twins = [base + k * TWO_PI for k in range(3) if base + k * TWO_PI <= hi]
+        if lo <= v <= hi:
+            twins.append(v)  # itself, exactly, where its twin in [lo, lo + 2 pi) is rounded
         if twins:
-            out[j] = min(twins, key=lambda t: abs(t - float(q_ref[j])))
-            moved.append(j)
+            twin = min(twins, key=lambda t: (abs(t - float(q_ref[j])), t != v))
+            if twin != v:
+                out[j] = twin
+                moved.append(j)
     return out, tuple(moved)
 
 

@@ -153,6 +153,31 @@ def _unreadable(where: str, source: str, line: int, why: str) -> IkSpecError:
     return IkSpecError(f"{where} line {line}{at} cannot be read as Python 2 ({one_line(why)})")
 
 
+def _misindented(where: str, source: str, n: int, msg: str) -> IkSpecError:
+    """Line ``n`` indented as Python 2 refused too (``source`` has Python 2's indentation):
+    ``msg``, what it said, and the columns of the line and of the code line before it."""
+    lines = source.split("\n")
+
+    def column(i: int) -> int:
+        return len(lines[i - 1]) - len(lines[i - 1].lstrip(" ")) if 0 < i <= len(lines) else 0
+
+    before = next(
+        (
+            i
+            for i in range(n - 1, 0, -1)
+            if lines[i - 1].strip() and not lines[i - 1].lstrip().startswith("#")
+        ),
+        0,
+    )
+    code = _line(source, n)
+    at = f": `{code}`" if code else ""
+    then = f", the code line before at column {column(before)}" if before else ""
+    return IkSpecError(
+        f"{where} line {n}{at}: {msg}, as under Python 2 (which refused it too: the line is "
+        f"at column {column(n)}{then}, a tab counting to the next multiple of 8)"
+    )
+
+
 def to_python3(source: str, filename: str, in_package: bool = False) -> tuple[str, bool]:
     """``source`` (Python 2, indentation already as Python 2 read it) as Python 3 source.
 
@@ -163,7 +188,7 @@ def to_python3(source: str, filename: str, in_package: bool = False) -> tuple[st
     Raises:
         IkSpecError: It is neither (the line fissix stopped at and why).
     """
-    from fissix.pgen2 import parse, tokenize
+    from fissix.pgen2 import parse, token, tokenize
 
     where = Path(filename).name
     if source.startswith("#!") and "python3" in source.split("\n", 1)[0]:
@@ -172,15 +197,19 @@ def to_python3(source: str, filename: str, in_package: bool = False) -> tuple[st
         tree = _tool(in_package).refactor_string(source if source.endswith("\n") else source + "\n",
                                                  filename)  # fmt: skip
     except parse.ParseError as exc:
+        line = exc.context[1][0] if exc.context else 0
+        if exc.type == token.INDENT:  # the indentation is Python 2's already: it refused it too
+            raise _misindented(where, source, line, "unexpected indent") from None
         try:
             compile(source, filename, "exec", dont_inherit=True)
         except SyntaxError:
-            line = exc.context[1][0] if exc.context else 0
             at = "the end of the line" if exc.value in ("\n", "") else repr(exc.value)
             raise _unreadable(where, source, line, f"a syntax error at {at}") from None
         return source, False
     except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
         line = getattr(exc, "lineno", None) or (exc.args[1][0] if len(exc.args) > 1 else 0)
+        if isinstance(exc, IndentationError):
+            raise _misindented(where, source, int(line or 0), str(exc.args[0])) from None
         raise _unreadable(where, source, int(line or 0), str(exc.args[0])) from None
     return str(tree), True
 
