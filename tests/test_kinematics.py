@@ -363,6 +363,43 @@ def test_invalid_pose(pose: np.ndarray, message: str) -> None:
             kin.inverse(batch)
 
 
+def test_single_and_batch_pose_checks_accept_the_same_poses() -> None:
+    """The single-pose check takes a quicker test first (columns 1 and 2 orthonormal, column 3
+    their cross product, to 1e-7) and the exact checks when that fails: the same poses pass and
+    fail as on the batch path, for rotations off by 0 to 3e-6 and for reflections."""
+    rng = np.random.default_rng(35)
+    q = random_q(rng, 400)
+    T = kin.forward(q)
+    passed = failed = 0
+    for i, scale in enumerate(np.repeat([0.0, 3e-8, 2e-7, 6e-7, 1.2e-6, 3e-6], 60)):
+        pose = T[i].copy()
+        pose[:3, :3] += scale * rng.uniform(-1.0, 1.0, size=(3, 3))
+        R = pose[:3, :3]
+        err = np.abs(R.T @ R - np.eye(3)).max()
+        try:
+            kin.inverse(pose[None])
+            batch_ok = True
+        except ValueError as exc:
+            assert "orthonormal" in str(exc)
+            batch_ok = False
+        try:
+            kin.inverse(pose)
+            kin.nearest(pose, q[i])
+            single_ok = True
+        except ValueError as exc:
+            assert "orthonormal" in str(exc)
+            single_ok = False
+        assert single_ok == batch_ok == (err <= 1e-6), (scale, err)
+        passed, failed = passed + single_ok, failed + (not single_ok)
+    assert passed > 150 and failed > 100
+    for pose in T[:20]:
+        pose = pose.copy()
+        pose[:3, 2] *= -1.0  # the third column turned round: a reflection
+        for call in (lambda p: kin.inverse(p), lambda p: kin.inverse(p[None])):
+            with pytest.raises(ValueError, match="reflection"):
+                call(pose)
+
+
 def test_invalid_q() -> None:
     with pytest.raises(ValueError, match="shape"):
         kin.forward(np.zeros(5))

@@ -122,7 +122,7 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
         flat: The pose's 16 entries, row by row, checked (``check_pose_flat``).
         c: :func:`constants` of the geometry.
     """
-    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz = flat[:12]
+    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz, _, _, _, _ = flat
     dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, _ = c
     lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
     hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
@@ -256,7 +256,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     Returns:
         The six joints [rad]; empty when no solution lies inside the limits.
     """
-    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz = flat[:12]
+    r00, r01, r02, px, r10, r11, r12, py, r20, r21, r22, pz, _, _, _, _ = flat
     dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, w = c
     lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
     hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
@@ -457,6 +457,12 @@ def nearest_one(T: Any, q_ref: Any, g: Geometry) -> list[float]:
         T = np.asarray(T, dtype=np.float64)
     flat: list[float] = T.ravel().tolist()
     check_pose_flat(flat)
-    ref = reference(q_ref)
+    if type(q_ref) is np.ndarray and q_ref.dtype is _F64 and q_ref.shape == (6,):
+        ref: list[float] = q_ref.tolist()  # reference(q_ref), the check inline
+        total = ref[0] + ref[1] + ref[2] + ref[3] + ref[4] + ref[5]
+        if total - total != 0.0:
+            ref = reference(q_ref)
+    else:
+        ref = reference(q_ref)
     hit = _CACHE.get(id(g))
     return nearest_solution(flat, hit[1] if hit is not None and hit[0] is g else constants(g), ref)

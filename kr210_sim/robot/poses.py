@@ -18,6 +18,8 @@ import numpy.typing as npt
 FloatArray = npt.NDArray[np.float64]
 #: Tolerance of the rotation checks on input poses.
 ORTHO_TOL = 1e-6
+#: The single-pose check's quick test (see :func:`check_pose_flat`); 5.5 x it is under ORTHO_TOL.
+_FAST_TOL = 1e-7
 #: Poses per work chunk of the batch path: small enough that the temporaries stay in cache.
 CHUNK = 16384
 _POOL: ThreadPoolExecutor | None = None
@@ -55,20 +57,22 @@ def check_pose_flat(v: list[float]) -> None:
     through the checks one by one, so that the message names the first that fails.
     """
     a, b, c, px, d, e, f, py, g, h, k, pz, b0, b1, b2, b3 = v
-    # NaN fails every comparison and inf fails the norms, so a pose that passes is finite
-    # (its translation is checked on its own).
+    # Columns u = (a, d, g), v = (b, e, h), w = (c, f, k). If |u|^2 - 1, |v|^2 - 1, u.v and each
+    # entry of w - u x v are within _FAST_TOL, then |w|^2 - 1 <= 5.5 _FAST_TOL, u.w and v.w
+    # <= 1.8 _FAST_TOL and det R > 0: inside ORTHO_TOL, in 27 products and sums instead of 44.
+    # NaN fails every comparison and inf the norms, so a pose that passes is finite (its
+    # translation checked on its own).
     if (
-        -ORTHO_TOL <= a * a + d * d + g * g - 1.0 <= ORTHO_TOL
-        and -ORTHO_TOL <= b * b + e * e + h * h - 1.0 <= ORTHO_TOL
-        and -ORTHO_TOL <= c * c + f * f + k * k - 1.0 <= ORTHO_TOL
-        and -ORTHO_TOL <= a * b + d * e + g * h <= ORTHO_TOL
-        and -ORTHO_TOL <= a * c + d * f + g * k <= ORTHO_TOL
-        and -ORTHO_TOL <= b * c + e * f + h * k <= ORTHO_TOL
+        -_FAST_TOL <= a * a + d * d + g * g - 1.0 <= _FAST_TOL
+        and -_FAST_TOL <= b * b + e * e + h * h - 1.0 <= _FAST_TOL
+        and -_FAST_TOL <= a * b + d * e + g * h <= _FAST_TOL
+        and -_FAST_TOL <= c - (d * h - g * e) <= _FAST_TOL
+        and -_FAST_TOL <= f - (g * b - a * h) <= _FAST_TOL
+        and -_FAST_TOL <= k - (a * e - d * b) <= _FAST_TOL
         and b0 == 0.0
         and b1 == 0.0
         and b2 == 0.0
         and b3 == 1.0
-        and a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) >= 0
         and math.isfinite(px + py + pz)
     ):
         return
