@@ -79,3 +79,15 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     assert "PASS: 1/1" in out
     report = json.loads((elsewhere / "reports" / "run.json").read_text())
     assert report["summary"]["successes"] == 1
+
+    # An original-form IK_server.py (Python 2, tabs, tf, kuka_arm.srv) graded by the installed
+    # copy: its ROS shims and Python 2 reading come from the wheel.
+    sys.path.insert(0, str(REPO / "tests"))
+    import ros_class
+
+    ros_class.write_class(elsewhere / "class", ("alice",))
+    argv = ["grade", "class", "--cases", "5", "--cycles", "1", "--report", "grade.json"]
+    _run([str(python), "-m", "kr210_sim", *argv], elsewhere, env)
+    (student,) = json.loads((elsewhere / "grade.json").read_text())["students"]
+    assert student["verdict"] == "pass", student["detail"]
+    assert student["spec"].endswith("alice/kuka_arm/scripts/IK_server.py:handle_calculate_IK")

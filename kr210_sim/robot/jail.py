@@ -157,10 +157,41 @@ def _covered(path: Path, roots: list[Path]) -> bool:
 
 def python_roots() -> list[Path]:
     """The folders this interpreter runs from: its prefixes (standard library, the environment's
-    packages) and the folder of the binary it resolves to."""
+    packages), the folder of the binary it resolves to, and the folders its site-packages'
+    ``.pth`` files add to the path (packages installed elsewhere, editable installs)."""
     found = [sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix]
     found.append(str(Path(sys.executable).resolve().parent))
+    found += [str(p) for p in _pth_folders()]
     return list(dict.fromkeys(Path(p).resolve() for p in found if p))
+
+
+def _pth_folders() -> list[Path]:
+    """The existing folders named by the ``.pth`` files of the site-packages (their lines that
+    are paths, as ``site`` reads them; ``import`` lines are code, not folders), but one holding
+    kr210_sim itself (an editable install's checkout)."""
+    found: list[Path] = []
+    for where in site.getsitepackages():
+        for pth in sorted(Path(where).glob("*.pth")):
+            try:
+                lines = pth.read_text(errors="replace").splitlines()
+            except OSError:
+                continue
+            for line in lines:
+                line = line.strip()
+                if not line or line.startswith(("#", "import ", "import\t")):
+                    continue
+                folder = (Path(where) / line).resolve()
+                ours = paths.PACKAGE_DIR.resolve().is_relative_to(folder)  # a checkout: its
+                if folder.is_dir() and not ours and str(folder) in map(_resolved, sys.path):
+                    found.append(folder)  # package and data are bound alone (package_roots)
+    return found
+
+
+def _resolved(entry: str) -> str:
+    try:
+        return str(Path(entry).resolve()) if entry else ""
+    except (OSError, ValueError):
+        return ""
 
 
 def package_roots() -> list[Path]:
