@@ -12,8 +12,9 @@ CPU time per pose before it answers (a busy loop on the thread's CPU clock, as s
 ``subs``/``evalf`` cost CPU), from :data:`COSTS`: 0.02 to 1.6 s a pose, median 0.06 s, as the
 real sample's servers took on one request of 15 poses.
 
-Printed: the wall time and the CPU time of the whole ``grade`` command (the grader, the
-students' grading processes and their servers), the load before and after, and each student's
+Printed: the wall time and the CPU time of the ``grade`` command and the processes it waited
+for (a jailed server's own CPU is counted by its jail: summed last), the load before and after,
+and each student's
 form, cost per pose, verdict, time (from its grading process's start), its server's CPU time
 (the jail's count), the cases tried of those planned and the cycles run.
 """
@@ -101,13 +102,15 @@ def build(folder: Path, students: int) -> list[tuple[str, str, float]]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--students", type=int, default=len(COSTS), help="at most 30")
-    parser.add_argument("--keep", type=Path, help="build the class here and keep it")
+    parser.add_argument(
+        "--keep", type=Path, help="build the class here and keep it (and the report)"
+    )
     parser.add_argument("grade", nargs="*", help="more grade options, after --")
     args = parser.parse_args(argv)
     if not 1 <= args.students <= len(COSTS):
         parser.error(f"--students must be 1-{len(COSTS)}")
     with tempfile.TemporaryDirectory() as tmp:
-        folder = args.keep or Path(tmp) / "class"
+        folder = (args.keep or Path(tmp)) / "class"
         folder.mkdir(parents=True, exist_ok=True)
         made = build(folder, args.students)
         report = Path(tmp) / "grade.json"
@@ -125,6 +128,10 @@ def main(argv: list[str] | None = None) -> int:
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
         print(f"load after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+        print(f"wall {wall / 60:.1f} min ({wall:.0f} s), CPU {cpu / 60:.1f} min ({cpu:.0f} s), "
+              f"grade exit {proc.returncode}")  # fmt: skip
+        if args.keep and report.exists():
+            shutil.copy2(report, args.keep / "grade.json")
         if not report.exists():
             print(proc.stdout[-2000:], proc.stderr[-2000:], sep="\n")
             return 1
@@ -137,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         ik, run = s.get("ik_check") or {}, s.get("run") or {}
         cases = f"{ik.get('cases', '-')}/{ik.get('cases_total', '-')}" if ik else "-"
         cycles = f"{run.get('cycles_run', '-')}/{run.get('cycles', '-')}" if run else "-"
-        took = s.get("wall_time_s", float("nan"))
+        took = (s.get("wall_time_s") or {}).get("total", float("nan"))
         cpu_s = (s.get("jail") or {}).get("cpu_s", float("nan"))
         print(f"{name:<16}{cost:>7.2f}  {s['verdict']:<8}{took:>7.1f}{cpu_s:>7.1f}{cases:>11}"
               f"{cycles:>8}")  # fmt: skip
@@ -145,8 +152,8 @@ def main(argv: list[str] | None = None) -> int:
     for s in data["students"]:
         verdicts[s["verdict"]] = verdicts.get(s["verdict"], 0) + 1
     print(f"verdicts: {', '.join(f'{n} {v}' for v, n in sorted(verdicts.items()))}")
-    print(f"wall {wall / 60:.1f} min ({wall:.0f} s), CPU {cpu / 60:.1f} min ({cpu:.0f} s), "
-          f"grade exit {proc.returncode}")  # fmt: skip
+    jailed = sum((s.get("jail") or {}).get("cpu_s", 0.0) for s in data["students"])
+    print(f"the students' servers' CPU, the jails' count: {jailed / 60:.1f} min ({jailed:.0f} s)")
     return 0
 
 
