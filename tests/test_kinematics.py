@@ -131,11 +131,11 @@ def out_of_reach(rng: np.random.Generator, g: kin.Geometry, n: int) -> np.ndarra
 
 
 def _odd_limits() -> RobotDescription:
-    """The committed description with limits that take every branch of the wrapping rules:
-    joint 1 narrower than +-pi, joint 2 past -pi, joint 4 off centre, joint 5 wider than +-pi,
-    joint 6 from -100 to 270 deg."""
+    """The committed description with limits that take the other branch of every wrapping rule
+    (the committed limits take the first): joint 1 narrower than +-pi, joint 2 past -pi, joint 3
+    inside +-pi, joint 4 off centre, joint 5 wider than +-pi, joint 6 from -100 to 270 deg."""
     robot = load_robot()
-    lower = np.radians([-170.0, -200.0, -210.0, -120.0, -190.0, -100.0])
+    lower = np.radians([-170.0, -200.0, -175.0, -120.0, -190.0, -100.0])
     upper = np.radians([170.0, 120.0, 65.0, 150.0, 190.0, 270.0])
     return dataclasses.replace(robot, q_lower=lower, q_upper=upper)
 
