@@ -9,7 +9,7 @@
   (:func:`~kr210_sim.robot.poses.check_pose_flat`);
 * every constant the formulas need is worked out once per geometry (:func:`constants`), with
   flags that spare the wrap of a joint whose range holds all of [-pi, pi] (joints 4 and 6 of
-  the KR210) and of one that no 2 pi shift can bring into its range (joint 2);
+  the KR210) and of one that no 2 pi shift can bring into its range (joints 2 and 5);
 * the answer is packed into its array with :mod:`struct`;
 * ``nearest`` is searched branch and bound (:func:`nearest_solution`): about one wrist is worked
   out a pose instead of four when the reference is near a solution.
@@ -38,6 +38,7 @@ from kr210_sim.robot.poses import check_pose_flat
 FloatArray = npt.NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
 PI = math.pi
+NEG_PI = -math.pi
 HALF_PI = math.pi / 2.0
 #: |sin q5| below which the wrist counts as straight (singular).
 WRIST_SINGULAR = 1e-9
@@ -91,10 +92,11 @@ def constants(g: Geometry) -> tuple[Any, ...]:
 
     Returns:
         (dg, d0, h1, a1, a2, L, phi, a2 * a2, L * L, 2 a2 L, lower, upper, lower - slack,
-        upper + slack, flags, inv_v2), ``inv_v2`` = 1 / v_max^2. ``flags`` for joints 1, 4, 5
-        and 6: the range holds all of [-pi, pi] (an atan2 there needs no wrap); for joints 2
-        and 3: the range lies inside [-pi, pi] (an angle in (-pi, pi] outside it cannot be
-        shifted in).
+        upper + slack, flags, inv_v2), ``inv_v2`` = 1 / v_max^2. ``flags``: for joints 1, 4,
+        5 and 6, the range holds all of [-pi, pi] (an atan2 there needs no wrap); for joints 2,
+        3 and then 5, the range lies inside (-pi, pi) (an angle in (-pi, pi] outside it cannot
+        be shifted in); last, both of joints 4 and 6 hold [-pi, pi] and joint 5 lies inside
+        (-pi, pi) (the KR210: the wrist flips need no wrap and no shift).
     """
     hit = _CACHE.get(id(g))
     if hit is not None and hit[0] is g:
@@ -105,7 +107,8 @@ def constants(g: Geometry) -> tuple[Any, ...]:
     hi_s = tuple(v + LIMIT_SLACK for v in hi)
     wide = [lo_s[j] <= -math.pi and hi_s[j] >= math.pi for j in range(6)]
     inner = [lo_s[j] > -math.pi + 1e-6 and hi_s[j] < math.pi - 1e-6 for j in range(6)]
-    flags = (wide[0], inner[1], inner[2], wide[3], wide[4], wide[5])
+    quick = wide[3] and wide[5] and inner[4]
+    flags = (wide[0], inner[1], inner[2], wide[3], wide[4], wide[5], inner[4], quick)
     c = (g.dg, g.d0, g.h1, g.a1, a2, L, g.forearm_angle, a2 * a2, L * L, 2.0 * a2 * L,
          lo, hi, lo_s, hi_s, flags, tuple(g.inv_v2_list))  # fmt: skip
     if len(_CACHE) > 64:  # descriptions made in a loop: keep the cache small
@@ -126,7 +129,7 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
     dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, _ = c
     lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
     hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
-    wide1, inner2, inner3, wide4, wide5, wide6 = flags
+    wide1, inner2, inner3, wide4, wide5, wide6, _, quick = flags
     wx, wy, wz = px - dg * r00, py - dg * r10, pz - dg * r20
     base_q1 = atan2(wy, wx)
     rho = hypot(wx, wy)
@@ -149,7 +152,7 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
                 continue
             cos_d = -1.0
         q1w = q1
-        if not (-PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
+        if not (NEG_PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
             w1w = wrap_into(q1, lo[0], hi[0])
             if w1w is None:
                 continue
@@ -158,11 +161,11 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
         ac = acos(cos_d)
         A = atan2(zz, x)
         B = atan2(L * sin(ac), a2 + L * cos(ac))
-        for elbow in (1.0, -1.0) if abs(cos_d) < 1.0 else (1.0,):
+        for elbow in (1.0, -1.0) if -1.0 < cos_d < 1.0 else (1.0,):
             q2 = HALF_PI - (A - elbow * B)
             q2w = q2
-            if not (-PI < q2 <= PI and lo2 <= q2 <= hi2):
-                if inner2 and -PI < q2 <= PI:  # no 2 pi shift brings it inside
+            if not (lo2 <= q2 <= hi2 and (inner2 or NEG_PI < q2 <= PI)):
+                if inner2 and NEG_PI < q2 <= PI:  # no 2 pi shift brings it inside
                     continue
                 w2w = wrap_into(q2, lo[1], hi[1])
                 if w2w is None:
@@ -170,8 +173,8 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
                 q2w = w2w
             q3 = -(elbow * ac) - phi - HALF_PI
             q3w = q3
-            if not (-PI < q3 <= PI and lo3 <= q3 <= hi3):
-                if inner3 and -PI < q3 <= PI:
+            if not (lo3 <= q3 <= hi3 and (inner3 or NEG_PI < q3 <= PI)):
+                if inner3 and NEG_PI < q3 <= PI:
                     continue
                 w3w = wrap_into(q3, lo[2], hi[2])
                 if w3w is None:
@@ -191,12 +194,12 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
             if s5 < WRIST_SINGULAR:  # the flips coincide: one solution, with q4 = 0
                 m21 = t01 * s23 + r21 * c23
                 v5, v6 = (0.0, atan2(m21, m11)) if m00 > 0 else (PI, atan2(-m21, m11))
-                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                if not (wide5 or (NEG_PI < v5 and lo5 <= v5 <= hi5)):
                     v5w = wrap_into(v5, lo[4], hi[4])
                     if v5w is None:
                         continue
                     v5 = v5w
-                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                if not (wide6 or (NEG_PI < v6 and lo6 <= v6 <= hi6)):
                     v6w = wrap_into(v6, lo[5], hi[5])
                     if v6w is None:
                         continue
@@ -212,9 +215,15 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
             m01 = t01 * c23 - r21 * s23
             m02 = t02 * c23 - r22 * s23
             q5 = atan2(s5, m00)
+            if quick:  # q4, q6 need no wrap, q5 no shift (the KR210): the flips written out
+                if lo5 <= q5 <= hi5:
+                    out += (q1w, q2w, q3w, atan2(m10, -m20), q5, atan2(m01, m02))
+                if lo5 <= -q5 <= hi5:
+                    out += (q1w, q2w, q3w, atan2(-m10, m20), -q5, atan2(-m01, -m02))
+                continue
             for flip in (1.0, -1.0):
                 v5 = q5 if flip > 0.0 else -q5
-                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                if not (wide5 or (NEG_PI < v5 and lo5 <= v5 <= hi5)):
                     v5w = wrap_into(v5, lo[4], hi[4])
                     if v5w is None:
                         continue
@@ -223,12 +232,12 @@ def solutions(flat: list[float], c: tuple[Any, ...]) -> list[float]:
                     v4, v6 = atan2(m10, -m20), atan2(m01, m02)
                 else:
                     v4, v6 = atan2(-m10, m20), atan2(-m01, -m02)
-                if not (wide4 or (-PI < v4 and lo4 <= v4 <= hi4)):
+                if not (wide4 or (NEG_PI < v4 and lo4 <= v4 <= hi4)):
                     v4w = wrap_into(v4, lo[3], hi[3])
                     if v4w is None:
                         continue
                     v4 = v4w
-                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                if not (wide6 or (NEG_PI < v6 and lo6 <= v6 <= hi6)):
                     v6w = wrap_into(v6, lo[5], hi[5])
                     if v6w is None:
                         continue
@@ -260,7 +269,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, w = c
     lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
     hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
-    wide1, inner2, inner3, wide4, wide5, wide6 = flags
+    wide1, inner2, inner3, wide4, wide5, wide6, _, _ = flags
     f1, f2, f3, f4, f5, f6 = ref
     w1, w2, w3, w4, w5, w6 = w
     wx, wy, wz = px - dg * r00, py - dg * r10, pz - dg * r20
@@ -272,7 +281,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     for back in (0, 1):
         q1 = base_q1 + PI if back else base_q1
         q1w = q1
-        if not (-PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
+        if not (NEG_PI < q1 <= PI and (wide1 or lo1 <= q1 <= hi1)):
             w1w = wrap_into(q1, lo[0], hi[0])
             if w1w is None:
                 continue
@@ -309,11 +318,11 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
         B = atan2(L * sin(ac), a2 + L * cos(ac))
         # the arms of this shoulder: (cost of q1..q3, 0 elbow + / 1 elbow -, q2, q3, q2 + q3)
         arms: list[tuple[float, bool, float, float, float]] = []
-        for elbow in (1.0, -1.0) if abs(cos_d) < 1.0 else (1.0,):
+        for elbow in (1.0, -1.0) if -1.0 < cos_d < 1.0 else (1.0,):
             q2 = HALF_PI - (A - elbow * B)
             q2w = q2
-            if not (-PI < q2 <= PI and lo2 <= q2 <= hi2):
-                if inner2 and -PI < q2 <= PI:
+            if not (lo2 <= q2 <= hi2 and (inner2 or NEG_PI < q2 <= PI)):
+                if inner2 and NEG_PI < q2 <= PI:
                     continue
                 w2w = wrap_into(q2, lo[1], hi[1])
                 if w2w is None:
@@ -321,8 +330,8 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                 q2w = w2w
             q3 = -(elbow * ac) - phi - HALF_PI
             q3w = q3
-            if not (-PI < q3 <= PI and lo3 <= q3 <= hi3):
-                if inner3 and -PI < q3 <= PI:
+            if not (lo3 <= q3 <= hi3 and (inner3 or NEG_PI < q3 <= PI)):
+                if inner3 and NEG_PI < q3 <= PI:
                     continue
                 w3w = wrap_into(q3, lo[2], hi[2])
                 if w3w is None:
@@ -361,7 +370,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                     v5 = 0.0 if m00 > 0 else PI
                 else:
                     v5 = q5 if flip > 0 else -q5
-                if not (wide5 or (-PI < v5 and lo5 <= v5 <= hi5)):
+                if not (wide5 or (NEG_PI < v5 and lo5 <= v5 <= hi5)):
                     v5w = wrap_into(v5, lo[4], hi[4])
                     if v5w is None:
                         continue
@@ -376,12 +385,12 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                     v4, v6 = atan2(m10, -m20), atan2(m01, m02)
                 else:
                     v4, v6 = atan2(-m10, m20), atan2(-m01, -m02)
-                if not (wide4 or (-PI < v4 and lo4 <= v4 <= hi4)):
+                if not (wide4 or (NEG_PI < v4 and lo4 <= v4 <= hi4)):
                     v4w = wrap_into(v4, lo[3], hi[3])
                     if v4w is None:
                         continue
                     v4 = v4w
-                if not (wide6 or (-PI < v6 and lo6 <= v6 <= hi6)):
+                if not (wide6 or (NEG_PI < v6 and lo6 <= v6 <= hi6)):
                     v6w = wrap_into(v6, lo[5], hi[5])
                     if v6w is None:
                         continue
