@@ -48,6 +48,8 @@ LIMIT_SLACK = 1e-9
 NEAREST_STRAIGHT = 1e-7
 #: A twin nearer the reference than this [rad] is the nearest of all (the others are > pi away).
 _NEAR = math.pi - 1e-6
+_NEG_NEAR = -_NEAR
+_NEG_STRAIGHT = -NEAREST_STRAIGHT
 _F64 = np.dtype(np.float64)
 #: Packers of k solutions (k = 1 ... 8) into an array's buffer.
 _PACK = [struct.Struct(f"{6 * k}d").pack_into for k in range(9)]
@@ -269,7 +271,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     dg, d0, h1, a1, a2, L, phi, a2sq, Lsq, den, lo, hi, lo_s, hi_s, flags, w = c
     lo1, lo2, lo3, lo4, lo5, lo6 = lo_s
     hi1, hi2, hi3, hi4, hi5, hi6 = hi_s
-    wide1, inner2, inner3, wide4, wide5, wide6, _, _ = flags
+    wide1, inner2, inner3, wide4, wide5, wide6, inner5, _ = flags
     f1, f2, f3, f4, f5, f6 = ref
     w1, w2, w3, w4, w5, w6 = w
     wx, wy, wz = px - dg * r00, py - dg * r10, pz - dg * r20
@@ -299,7 +301,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
             break
         t1 = q1w + round((f1 - q1w) / TWO_PI) * TWO_PI
         d = t1 - f1
-        if not (-_NEAR < d < _NEAR and lo1 <= t1 <= hi1):
+        if not (_NEG_NEAR < d < _NEAR and lo1 <= t1 <= hi1):
             t1 = best_twin(q1w, f1, lo[0], hi[0])
             d = t1 - f1
         cost1 = d * d * w1
@@ -370,7 +372,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                     v5 = 0.0 if m00 > 0 else PI
                 else:
                     v5 = q5 if flip > 0 else -q5
-                if not (wide5 or (NEG_PI < v5 and lo5 <= v5 <= hi5)):
+                if not (wide5 or (lo5 <= v5 <= hi5 and (inner5 or NEG_PI < v5))):
                     v5w = wrap_into(v5, lo[4], hi[4])
                     if v5w is None:
                         continue
@@ -395,7 +397,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                     if v6w is None:
                         continue
                     v6 = v6w
-                if -NEAREST_STRAIGHT < sin(v5) < NEAREST_STRAIGHT:  # keep q4, move q6 by the same
+                if _NEG_STRAIGHT < sin(v5) < NEAREST_STRAIGHT:  # keep q4, move q6 by the same
                     shift = f4 - v4
                     v4 = f4
                     v6 = v6 - shift if cos(v5) > 0 else v6 + shift
@@ -406,7 +408,7 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                         v6 = v6w
                 t = v4 + round((f4 - v4) / TWO_PI) * TWO_PI
                 d = t - f4
-                if not (-_NEAR < d < _NEAR and lo4 <= t <= hi4):
+                if not (_NEG_NEAR < d < _NEAR and lo4 <= t <= hi4):
                     t = best_twin(v4, f4, lo[3], hi[3])
                     d = t - f4
                 v4 = t
@@ -415,15 +417,16 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
                     continue
                 t = v6 + round((f6 - v6) / TWO_PI) * TWO_PI
                 d = t - f6
-                if not (-_NEAR < d < _NEAR and lo6 <= t <= hi6):
+                if not (_NEG_NEAR < d < _NEAR and lo6 <= t <= hi6):
                     t = best_twin(v6, f6, lo[5], hi[5])
                     d = t - f6
                 v6 = t
                 cost += d * d * w6
-                key = 4 * back + 2 * lower + (flip < 0)
-                if cost < best_cost or (cost == best_cost and key < best_key):
-                    best_cost, best_key = cost, key
-                    best = [t1, q2w, q3w, v4, v5, v6]
+                if cost <= best_cost:
+                    key = 4 * back + 2 * lower + (flip < 0)
+                    if cost < best_cost or key < best_key:
+                        best_cost, best_key = cost, key
+                        best = [t1, q2w, q3w, v4, v5, v6]
     return best
 
 
