@@ -38,7 +38,7 @@ def test_every_joint_as_yourdfpy_reads_it() -> None:
             assert (ours.lower, ours.upper, ours.velocity, ours.effort) == lim
     assert robot.finger_gap_at_zero == pytest.approx(0.119)
     assert (robot.lip_x, robot.lip_depth, robot.finger_center_x) == pytest.approx(
-        (0.215, 0.008, 0.15)
+        (0.215, 0.018, 0.15)
     )
 
 

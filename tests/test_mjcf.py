@@ -180,6 +180,30 @@ def test_hull_colliders_touch_the_cell_but_not_the_targets(model: mujoco.MjModel
     assert pairs(target, board)
 
 
+def test_the_lips_cannot_wedge_a_cylinder_between_them(model: mujoco.MjModel) -> None:
+    """A lip touches the cylinder at its inner corner, where the surface normal leans
+    acos(1 - depth / r) off the squeeze axis. A lip whose friction angle is larger wedges a
+    cylinder pulled outward: the fingers spread until the lips alone carry the squeeze and the
+    pads lose it (the 8 mm lips, 33 deg, at the target's friction 1.0, 45 deg, did on MuJoCo
+    4.0.1: creep 3.5-5.8 mm a carry). The lips' own coefficient applies (their priority is above
+    the targets') and lets every cylinder of the randomised range slide back onto the pads."""
+    robot = load_robot()
+    cell = published_cell()
+    target = model.geom("target_0")
+    radii = (cell.target.radius, *cell.randomization.radius)
+    for side in ("left", "right"):
+        lip = model.geom(f"{side}_finger_lip")
+        assert 2.0 * lip.size[1] == pytest.approx(robot.lip_depth)
+        assert lip.priority[0] > target.priority[0]  # the lip's friction is the contact's
+        friction_angle = math.degrees(math.atan(lip.friction[0]))
+        leans = [math.degrees(math.acos(1.0 - robot.lip_depth / r)) for r in radii]
+        assert friction_angle < min(leans), (friction_angle, leans)
+    assert robot.lip_depth == pytest.approx(0.018)
+    assert [round(x, 1) for x in leans] == [50.2, 56.6, 45.6]
+    # the 8 mm lips at the target's own friction wedged the nominal cylinder
+    assert math.degrees(math.acos(1.0 - 0.008 / 0.05)) < math.degrees(math.atan(1.0))
+
+
 def test_a_planning_build_keeps_the_finer_hulls(model: mujoco.MjModel) -> None:
     """build_spec(planning=True): the drawn meshes' own hulls, for kinematic checks; the stepped
     model's light hulls have under half their vertices and also enclose the drawn meshes."""

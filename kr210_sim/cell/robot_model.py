@@ -43,6 +43,20 @@ FINGER_KV = 400.0
 GRASP_SOLREF = (0.004, 1.0)
 GRASP_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
 FINGER_FRICTION = (1.5, 0.01, 0.0001)
+#: Friction of the fingertip lips' acetal faces on the steel cylinder: sliding, torsional [m],
+#: rolling [m]. Polyacetal against steel: static 0.1-0.3 (Shackelford, *CRC Materials Science and
+#: Engineering Handbook*, 2001, "coefficients of static friction for polymers"); the upper end.
+#: The lips' contact priority (:data:`LIP_PRIORITY`) is above the targets', so this coefficient
+#: applies at the lips (the pads keep the target's). A lip touches the cylinder at its inner
+#: corner, where the surface normal leans ``acos(1 - lip_depth / radius)`` off the squeeze axis
+#: (50 deg for the 18 mm lip on the 50 mm cylinder, 33 deg for the 8 mm lip it replaced). When
+#: the lip's friction angle, ``atan(mu)``, is larger, the lip wedges the cylinder: pulled
+#: outward, it pushes the fingers apart until the lips alone carry the squeeze and the pads lose
+#: it (the 8 mm lip at the target's 1.0, 45 deg, on MuJoCo 4.0.1: creep 3.5-5.8 mm a carry). At
+#: 0.3 (17 deg) no lip can wedge a cylinder of the randomised range (0.04-0.06 m: 46-57 deg).
+LIP_FRICTION = (0.3, 0.01, 0.0001)
+#: Contact priority of the lips: above the targets' (1), so :data:`LIP_FRICTION` applies.
+LIP_PRIORITY = 2
 
 
 #: Contact filter bits (``contype``/``conaffinity``): a pair is tested when one's contype meets
@@ -172,9 +186,11 @@ def configure_robot(
         for geom, part in zip(boxes, ("pad", "lip"), strict=True):
             geom.name = f"{finger.split('_')[0]}_finger_{part}"
             geom.condim = 4
-            geom.friction = list(FINGER_FRICTION)
+            geom.friction = list(FINGER_FRICTION if part == "pad" else LIP_FRICTION)
             geom.solref = list(GRASP_SOLREF)
             geom.solimp = list(GRASP_SOLIMP)
+            if part == "lip":
+                geom.priority = LIP_PRIORITY
     gripper = spec.body("gripper_link")
     gripper.add_site(name="tcp", pos=[0, 0, 0], size=[0.01, 0, 0], rgba=[1, 0, 0, 0.5], group=4)
     gripper.add_site(

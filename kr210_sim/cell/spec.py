@@ -35,8 +35,9 @@ class TargetSpec:
         length: Cylinder length (height) in [m].
         mass: Mass in [kg].
         friction: Sliding friction coefficient. The targets' contact priority (1) is above the
-            fingers', the shelf's and the floor's (0), so this is the coefficient of every
-            contact the target makes with them; only the bin floor (priority 2) uses its own.
+            finger pads', the shelf's and the floor's (0), so this is the coefficient of every
+            contact the target makes with them; only the bin floor and the fingertip lips
+            (priority 2) use their own.
     """
 
     radius: float = 0.05
