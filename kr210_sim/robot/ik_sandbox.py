@@ -453,7 +453,8 @@ class IkSandbox:
         """Many poses in one call (a ROS-form server gets them as one request, as MoveIt sent
         a planned path): one answer per pose, as :meth:`__call__` gives it, but an exception
         the user's code raised on a pose is that pose's answer, not raised. The call may take
-        ``call_timeout`` per pose.
+        ``call_timeout`` per pose, or for a ROS-form server with a :attr:`deadline` (a graded
+        student's budget) up to the deadline.
 
         Args:
             poses: The poses (4x4).
@@ -468,6 +469,12 @@ class IkSandbox:
             "q": [np.asarray(q, dtype=np.float64).reshape(-1).tolist() for q in qs],
         }
         limit = None if self.limits.call_timeout is None else self.limits.call_timeout * n
+        if self.ros and self.deadline is not None:
+            # A ROS-form server within a time budget (grade): a request may take what is left
+            # of it. Its sympy costs up to ~1.6 s a pose on an idle machine, more under load
+            # and its jail's one-core quota, so --ik-timeout per pose would time out a server
+            # that is only slow; the budget still ends one that never answers.
+            limit = None
         got = self._request(message, limit)
         if isinstance(got, Oversized):
             return [oversized(got.size)] * n
