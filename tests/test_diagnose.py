@@ -351,3 +351,21 @@ def test_theta4_to_6_wrong_on_some_poses_only_is_named(cases: list[Case]) -> Non
     assert found[0].code == "wrist_angles"
     n = int(found[0].text.split()[0])
     assert 0.2 * len(cases) < n < 0.8 * len(cases)
+
+
+def test_a_server_never_sent_q_ref_is_told_what_to_keep_instead(cases: list[Case]) -> None:
+    """The other wrist solution than ours, for an original-form server (a request holds poses
+    only): the advice is the previous pose's answer, not q_ref."""
+
+    def flipped(T: np.ndarray, q: np.ndarray) -> Any:
+        a = kinematics.nearest(T, q).copy()
+        a[3], a[4], a[5] = a[3] + math.pi, -a[4], a[5] + math.pi
+        return a
+
+    records = check(KIN, UserIk("t:s", flipped), cases, io.StringIO())
+    poses = [c.T for c in cases]
+    ours = {f.code: f.text for f in diagnose(KIN, records, poses)}
+    ros = {f.code: f.text for f in diagnose(KIN, records, poses, no_q_ref=True)}
+    assert ours["wrist_flip"].endswith("return the one nearest q_ref")
+    assert "keep the one nearest the previous pose's answer" in ros["wrist_flip"]
+    assert "q_ref" not in ros["wrist_flip"]

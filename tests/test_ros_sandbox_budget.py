@@ -47,8 +47,14 @@ def test_a_slow_server_s_request_may_take_its_budget(tmp_path: Path) -> None:
         box.start()
         box.deadline = time.monotonic() + 30.0  # a graded student's budget
         answers = box.batch(POSES)
+        one = box(POSES[0], Q[0])  # a request of one pose too (a run's standoff pose)
     assert all(assess(KIN, T, q, a).passed for T, q, a in zip(POSES, Q, answers, strict=True))
+    assert assess(KIN, POSES[0], Q[0], one).passed
     with IkSandbox(str(script), limits, capture=True, stop=True) as box:  # no budget: per pose
         box.start()
         with pytest.raises(SandboxStop, match=r"no answer within 0\.4 s"):
             box.batch(POSES)
+    with IkSandbox(str(script), limits, capture=True, stop=True) as box:
+        box.start()
+        with pytest.raises(SandboxStop, match=r"no answer within 0\.1 s"):
+            box(POSES[0], Q[0])

@@ -493,6 +493,7 @@ def diagnose(
     poses: Sequence[FloatArray],
     failed_cycles: Sequence[dict[str, Any]] = (),
     notes: Sequence[str] = (),
+    no_q_ref: bool = False,
 ) -> list[Finding]:
     """The classic mistakes visible in an ik-check and a run.
 
@@ -503,6 +504,8 @@ def diagnose(
         failed_cycles: The run's failed cycles, each with ``cycle`` and ``detail``.
         notes: What Python 2 semantics changed in an original-form server's code (its
             sandbox's notes).
+        no_q_ref: The IK was never sent ``q_ref`` (an original-form server: a request holds
+            poses only), so what to do is said without it.
 
     Returns:
         The findings, most telling first (empty when nothing is recognised).
@@ -524,15 +527,22 @@ def diagnose(
     found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
     counts = _branch_counts(records)
+    wrist_fix = "of the wrist's two solutions return the one nearest q_ref"
+    if no_q_ref:  # a request carries no joint state: the previous pose's answer is all it has
+        wrist_fix = (
+            "of the wrist's two solutions keep the one nearest the previous pose's answer (a "
+            "request holds no joint state; ik-check flags these and does not fail them)"
+        )
     for code, kind, fix in (
-        ("wrist_flip", "wrist flip", "of the wrist's two solutions return the one nearest q_ref"),
+        ("wrist_flip", "wrist flip", wrist_fix),
         ("two_pi", "2pi jump", "return the 2 pi twin of each angle nearest q_ref"),
     ):
         cycles = _cycles_with(failed_cycles, kind)
         if counts.get(kind) or cycles:
             parts = []
             if counts.get(kind):
-                parts.append(f"{counts[kind]} ik-check answers are a {kind} from q_ref")
+                ref = "the solution nearest the arm's joints" if no_q_ref else "q_ref"
+                parts.append(f"{counts[kind]} ik-check answers are a {kind} from {ref}")
             if cycles:
                 which = ", ".join(str(c) for c in cycles)
                 parts.append(f"cycle{'s' if len(cycles) > 1 else ''} {which} failed on a {kind}")

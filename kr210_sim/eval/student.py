@@ -454,7 +454,9 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         record["verdict"], record["detail"] = _verdict(job, record["ik_check"], run, budget)
     if records:
         poses = [c.T for c in cases[: len(records)]]
-        found = diagnose(kin, records, poses, run["failed_cycles"], notes=sandbox.notes)
+        found = diagnose(
+            kin, records, poses, run["failed_cycles"], sandbox.notes, no_q_ref=ik.batch is not None
+        )
         record["diagnosis"] = [f.to_dict() for f in found]
         if job.plots:
             record["plots"] = _plots(Path(job.plots), records)

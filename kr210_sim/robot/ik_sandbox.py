@@ -444,10 +444,21 @@ class IkSandbox:
         self.poses += 1
         T_list = np.asarray(T, dtype=np.float64).reshape(16).tolist()
         q_list = np.asarray(q_ref, dtype=np.float64).reshape(-1).tolist()
-        got = self._request({"T": T_list, "q": q_list}, self.limits.call_timeout)
+        got = self._request({"T": T_list, "q": q_list}, self._pose_limit(1))
         if isinstance(got, Oversized):
             return oversized(got.size)
         return answer_of(got)
+
+    def _pose_limit(self, n: int) -> float | None:
+        """How long a request of ``n`` poses may take [s]: ``call_timeout`` per pose, or for a
+        ROS-form server within a time budget (a graded student's :attr:`deadline`) what is left
+        of it: its sympy costs up to ~1.6 s a pose on an idle machine (and a request's set-up,
+        a symbolic inverse, seconds), more under load and its jail's one-core quota, so the
+        limit per pose would time out a server that is only slow; the budget still ends one that
+        never answers."""
+        if self.ros and self.deadline is not None:
+            return None
+        return None if self.limits.call_timeout is None else self.limits.call_timeout * n
 
     def batch(self, poses: Sequence[FloatArray], q_refs: Sequence[FloatArray] = ()) -> list[Any]:
         """Many poses in one call (a ROS-form server gets them as one request, as MoveIt sent
@@ -468,14 +479,7 @@ class IkSandbox:
             "batch": [np.asarray(T, dtype=np.float64).reshape(16).tolist() for T in poses],
             "q": [np.asarray(q, dtype=np.float64).reshape(-1).tolist() for q in qs],
         }
-        limit = None if self.limits.call_timeout is None else self.limits.call_timeout * n
-        if self.ros and self.deadline is not None:
-            # A ROS-form server within a time budget (grade): a request may take what is left
-            # of it. Its sympy costs up to ~1.6 s a pose on an idle machine, more under load
-            # and its jail's one-core quota, so --ik-timeout per pose would time out a server
-            # that is only slow; the budget still ends one that never answers.
-            limit = None
-        got = self._request(message, limit)
+        got = self._request(message, self._pose_limit(n))
         if isinstance(got, Oversized):
             return [oversized(got.size)] * n
         entries = got.get("answers")
