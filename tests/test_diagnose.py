@@ -369,3 +369,18 @@ def test_a_server_never_sent_q_ref_is_told_what_to_keep_instead(cases: list[Case
     assert ours["wrist_flip"].endswith("return the one nearest q_ref")
     assert "keep the one nearest the previous pose's answer" in ros["wrist_flip"]
     assert "q_ref" not in ros["wrist_flip"]
+
+
+def test_answers_that_fail_are_named_before_branch_changes_that_are_only_flagged(
+    cases: list[Case],
+) -> None:
+    def mixed(T: np.ndarray, q: np.ndarray) -> Any:
+        a = kinematics.nearest(T, q).copy()
+        if int(abs(T[0, 3]) * 1000) % 2:
+            a[3], a[4], a[5] = a[3] + math.pi, -a[4], a[5] + math.pi  # the other wrist: flagged
+        else:
+            a[4] = 3.0  # past joint_5's 125 deg: the case fails
+        return a
+
+    codes = _codes(cases, mixed)
+    assert codes.index("outside_limits") < codes.index("wrist_flip")

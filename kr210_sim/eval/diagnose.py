@@ -526,6 +526,20 @@ def diagnose(
             found += [f] if f is not None else []
     found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
+    # answers outside the limits fail their cases; branch changes are flagged, not failed
+    outside = [r for r in records if r["q"] is not None and not r["within_limits"]]
+    if outside:
+        r = outside[0]
+        found.append(
+            Finding(
+                "outside_limits",
+                f"{len(outside)} answers lie outside the joint limits, for poses the arm reaches "
+                f"inside them (e.g. case {r['name']} at {r['position']}: {r['problem']}): an IK "
+                "of one branch (theta1 = atan2(wy, wx), one elbow, one wrist) misses the poses "
+                "only another reaches inside the limits; try the others (theta1 + pi with the "
+                "arm over its back, the other elbow, the other wrist) and keep one inside them",
+            )
+        )
     counts = _branch_counts(records)
     wrist_fix = "of the wrist's two solutions return the one nearest q_ref"
     if no_q_ref:  # a request carries no joint state: the previous pose's answer is all it has
@@ -548,19 +562,6 @@ def diagnose(
                 parts.append(f"cycle{'s' if len(cycles) > 1 else ''} {which} failed on a {kind}")
                 parts[-1] += " on a straight-line move"
             found.append(Finding(code, f"{'; '.join(parts)}: {fix}"))
-    outside = [r for r in records if r["q"] is not None and not r["within_limits"]]
-    if outside:
-        r = outside[0]
-        found.append(
-            Finding(
-                "outside_limits",
-                f"{len(outside)} answers lie outside the joint limits, for poses the arm reaches "
-                f"inside them (e.g. case {r['name']} at {r['position']}: {r['problem']}): an IK "
-                "of one branch (theta1 = atan2(wy, wx), one elbow, one wrist) misses the poses "
-                "only another reaches inside the limits; try the others (theta1 + pi with the "
-                "arm over its back, the other elbow, the other wrist) and keep one inside them",
-            )
-        )
     raised = [r for r in records if r.get("error")]
     if raised:
         found.append(
