@@ -95,7 +95,8 @@ def test_the_tumble_band_lies_behind_the_spot() -> None:
 @pytest.mark.parametrize(("upright", "height"), [(True, 0.30), (False, 0.15)])
 def test_drop_heights_see_the_cylinders_in_the_bin(upright: bool, height: float) -> None:
     """A cylinder standing (lying) at drop spot 1: one dropped there lands 0.25 m (0.10 m)
-    above the floor, on it; the other spots are free."""
+    above the floor, on it, and so may one tumbling back from drop spot 4 (0.22 m beyond it);
+    the other spots are free."""
     model = model_for()
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
@@ -109,5 +110,24 @@ def test_drop_heights_see_the_cylinders_in_the_bin(upright: bool, height: float)
         data.qpos[a : a + 7] = (x, y, 0.05 + 0.05, np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0)
     mujoco.mj_forward(model, data)
     z = drop_heights(model, data, layout, h)
-    assert z[0] == pytest.approx(height, abs=1e-3)
-    assert np.allclose(z[1:], 0.05, atol=1e-6)
+    assert z[0] == pytest.approx(height, abs=1e-3) and z[3] == pytest.approx(height, abs=1e-3)
+    assert np.allclose(np.delete(z, [0, 3]), 0.05, atol=1e-6)
+
+
+def test_drop_heights_see_a_cylinder_standing_behind_the_spot() -> None:
+    """A cylinder standing 0.14 m back of drop spot 1 (towards the robot), clear of the
+    footprint's rays: a tumbling cylinder may come down on it (edge cell 6010 of
+    ``tests/random_cells.py``: one landed upright on another, its centre above the low bin's
+    rim, missed_bin). The spot's pile is that cylinder's top; one as far beyond the spot is not
+    in the band."""
+    model = model_for()
+    data = mujoco.MjData(model)
+    h = CellHandles.from_model(model)
+    layout = CellLayout.from_model(model)
+    a = int(h.target_qpos[3])
+    x, y = layout.drop_spots[0]  # radial: +y
+    for dy, height in ((-0.14, 0.30), (0.14, 0.05)):
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+        data.qpos[a : a + 7] = (x, y + dy, 0.05 + 0.125, 1.0, 0.0, 0.0, 0.0)
+        mujoco.mj_forward(model, data)
+        assert drop_heights(model, data, layout, h)[0] == pytest.approx(height, abs=1e-3)

@@ -147,9 +147,19 @@ def drop_heights(
 ) -> FloatArray:
     """Where a cylinder dropped at each drop spot now lands [m]: the height of the highest
     thing under its footprint, the cylinders lying (or standing) in the bin included, as
-    ``data`` holds them. Shape (number of drop spots,)."""
+    ``data`` holds them, and of the cylinders in the band behind it that a tumbling one may
+    come down on (:func:`tumble_band`; one standing 0.13 m back of a spot had another land
+    upright on it, its centre above a low bin's rim). Shape (number of drop spots,)."""
     found = _landings(model, data, layout, _stops(model, handles, targets=True))
-    return np.array([z if geom >= 0 else layout.bin.floor_top for z, geom in found])
+    targets = frozenset(int(g) for g in handles.target_geoms)
+    piled = _tumbles(model, data, layout, targets)
+    floor = layout.bin.floor_top
+    return np.array(
+        [
+            max(z if g >= 0 else floor, zt if gt >= 0 else floor)
+            for (z, g), (zt, gt) in zip(found, piled, strict=True)
+        ]
+    )
 
 
 def _stops(model: mujoco.MjModel, h: CellHandles, targets: bool) -> frozenset[int]:
