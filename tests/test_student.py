@@ -18,6 +18,8 @@ from kr210_sim.eval.roster import find_students
 from kr210_sim.eval.student import (
     StudentClock,
     StudentJob,
+    _verdict,
+    one_branch,
     replay_command,
     shell_word,
     student_sandbox,
@@ -139,3 +141,44 @@ def test_the_film_it_command_names_the_same_file_whatever_its_bytes(tmp_path: Pa
     assert video_name("<script> x") == "_script__x" and video_name("no_offset") == "no_offset"
     command = replay_command(_job(tmp_path, f"c/{long}.py:solve", long), 1)
     assert len(Path(str(_parsed(command).video)).name) < 255  # type: ignore[attr-defined]
+
+
+def _case(group: str, passed: bool, within: bool, pos: float, ori: float) -> dict[str, object]:
+    return {
+        "group": group,
+        "passed": passed,
+        "q": [0.0] * 6,
+        "error": None,
+        "within_limits": within,
+        "position_error_m": pos,
+        "orientation_error_rad": ori,
+    }
+
+
+def test_a_ros_server_is_not_failed_for_being_one_branch_outside_the_exercise_s_cases(
+    tmp_path: Path,
+) -> None:
+    """The exercise's IK gives one branch: on a random or limit pose that only another branch
+    reaches inside the limits, its answer reaches the pose outside them. A ROS-form server is
+    not failed for that (it is told and counted); an answer that misses its pose, or any miss on
+    IK_debug's or the cell's poses, still fails it; our form (given q_ref, asked for the nearest
+    of all branches) is failed for every case."""
+    assert one_branch(_case("random", False, False, 1e-12, 1e-12))
+    assert one_branch(_case("limits", False, False, 9e-4, 9e-4))
+    assert not one_branch(_case("cell", False, False, 1e-12, 1e-12))  # the exercise's own
+    assert not one_branch(_case("ik_debug", False, False, 1e-12, 1e-12))
+    assert not one_branch(_case("random", False, False, 1e-12, 0.0949))  # misses the pose
+    assert not one_branch(_case("random", False, True, 1e-12, 1e-12))  # another problem
+    assert not one_branch(_case("random", True, True, 0.0, 0.0))
+    job = _job(tmp_path, "x.py:solve")
+    run = {"successes": 1, "cycles_run": 1}
+    ik = {"cases": 100, "cases_total": 100, "passed": 96, "one_branch": 4}
+    verdict, detail = _verdict(job, ik, run, ros=True)
+    assert verdict == "pass" and detail == (
+        "ik-check 96/100 cases (4 more answers reach their pose outside the joint limits, where "
+        "only another branch reaches it inside them: one branch, as the exercise's IK, not "
+        "failed), run 1/1 cycles (pass bar 1)"
+    )
+    assert _verdict(job, ik, run)[0] == "fail"  # our form: every case counts
+    assert _verdict(job, {**ik, "one_branch": 3}, run, ros=True)[0] == "fail"  # one more miss
+    assert _verdict(job, ik, {"successes": 0, "cycles_run": 1}, ros=True)[0] == "fail"
