@@ -384,3 +384,24 @@ def test_answers_that_fail_are_named_before_branch_changes_that_are_only_flagged
 
     codes = _codes(cases, mixed)
     assert codes.index("outside_limits") < codes.index("wrist_flip")
+
+
+def test_a_singular_wrist_taken_apart_from_rounding_noise_is_named(cases: list[Case]) -> None:
+    """An IK right everywhere but at q5 = 0, where its q4 and q6 come out apart as the noise of
+    atan2 gives them (here q4 + 1, q6 + 0.9: their sum 1.9 rad off), is named there."""
+
+    def fn(T: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+        q = kinematics.nearest(T, q_ref)
+        if abs(math.sin(q[4])) < 1e-9:
+            q = q.copy()
+            q[3] += 1.0
+            q[5] += 0.9
+        return q
+
+    records = check(KIN, UserIk("test:solve", fn), cases, io.StringIO())
+    found = diagnose(KIN, records, [c.T for c in cases])
+    assert [f.code for f in found] == ["singular_wrist"]
+    text = found[0].text
+    assert text.startswith("3 answers with the wrist straight (theta5 = 0, e.g. case q = 0: ")
+    assert "theta4 = 1.0000, theta6 = 0.9000) reach the position" in text
+    assert "the orientation off by up to 1900.0 mrad: there only theta4 + theta6 is defined" in text

@@ -28,6 +28,9 @@ The mistakes of the original exercise's servers (:mod:`kr210_sim.robot.ros`):
 * ``theta3_offset``: the orientation right and the wrist centre off by the same distance on
   every answer: theta3 is off by a constant angle (the correction for the 0.054 m drop with
   the wrong sign is 0.072 rad).
+* ``singular_wrist``: answers with the wrist straight (q5 = 0) that reach the position with
+  the orientation wrong: q4 and q6 taken apart from entries that are rounding noise there,
+  where only their sum is defined.
 * ``euler_order``: positions exact, orientations off by a rotation that changes from pose to
   pose: the rotation built from roll, pitch and yaw is not the pose's (the order named when one
   of the six orders of the elementary rotations explains the answers).
@@ -243,6 +246,8 @@ _NAMES = {"x": "Rx(roll)", "y": "Ry(pitch)", "z": "Rz(yaw)"}
 _SAME = 1e-6
 #: Fewest answers a rotation mistake is named from.
 FEW = 3
+#: |sin q5| below which an answer's wrist counts as straight (singular).
+STRAIGHT = 1e-6
 
 
 def _exact_position(r: dict[str, Any]) -> bool:
@@ -307,7 +312,9 @@ def wrist_angles(records: Sequence[dict[str, Any]]) -> Finding | None:
     """``wrist_angles``: on most of the answers that miss (at least :data:`FEW`) the wrist
     centre is right and the orientation is not (see the module doc)."""
     answered = _answered(records)
-    inside = [r for r in answered if r["within_limits"]]  # those outside are named as such
+    inside = [  # those outside the limits, and with the wrist straight, are named as such
+        r for r in answered if r["within_limits"] and abs(math.sin(r["q"][4])) >= STRAIGHT
+    ]
     failing = [r for r in inside if _wrong_rotation(r) or r["position_error_m"] > POSITION_TOL]
     bad = [r for r in failing if r["wrist_centre_error_m"] <= POSITION_TOL and _wrong_rotation(r)]
     if len(bad) < FEW or len(bad) < MAJORITY * len(failing):
@@ -487,6 +494,32 @@ def _cycles_with(failed: Sequence[dict[str, Any]], words: str) -> list[int]:
     return [int(c["cycle"]) for c in failed if words in str(c.get("detail") or "")]
 
 
+def singular_wrist(records: Sequence[dict[str, Any]]) -> Finding | None:
+    """``singular_wrist``: answers inside the limits with q5 at 0 (or pi) whose position is
+    right and orientation is not (see the module doc)."""
+    bad = [
+        r
+        for r in _answered(records)
+        if r["within_limits"]
+        and _exact_position(r)
+        and _wrong_rotation(r)
+        and abs(math.sin(r["q"][4])) < STRAIGHT
+    ]
+    if not bad:
+        return None
+    worst = max(r["orientation_error_rad"] for r in bad)
+    r = bad[0]
+    return Finding(
+        "singular_wrist",
+        f"{len(bad)} answer{'s' if len(bad) != 1 else ''} with the wrist straight (theta5 = 0, "
+        f"e.g. case {r['name']}: theta4 = {r['q'][3]:.4f}, theta6 = {r['q'][5]:.4f}) "
+        f"{'reach' if len(bad) != 1 else 'reaches'} the position with the orientation off by up to {1000 * worst:.1f} mrad: there only "
+        "theta4 + theta6 is defined, and the entries of R3_6 that give them apart are rounding "
+        "noise; when sin(theta5) is about 0, keep theta4 (0, or the previous answer's) and "
+        "take theta6 from the entries that hold theta4 + theta6",
+    )
+
+
 def diagnose(
     kin: Kinematics,
     records: Sequence[dict[str, Any]],
@@ -524,6 +557,9 @@ def diagnose(
         if not any(f.code == "wrist_angles" for f in found):
             f = gripper_length(kin, records, poses) or theta3_offset(records)
             found += [f] if f is not None else []
+    if not any(f.code in ("stale_rotation", "euler_order") for f in found):
+        f = singular_wrist(records)
+        found += [f] if f is not None else []
     found.extend(server_mistakes(records, notes))
     found.extend(unusable_answers(records))
     # answers outside the limits fail their cases; branch changes are flagged, not failed
