@@ -105,24 +105,7 @@ def test_one_ik_in_both_forms_gives_the_same_answers_and_verdicts(tmp_path: Path
 
 
 #: A server that takes 50 ms a pose (sleeping, so the load of the machine hardly matters).
-SLOW = """import rospy, time
-import numpy as np
-from kuka_arm.srv import *
-from trajectory_msgs.msg import JointTrajectoryPoint
-from kr210_sim.robot import kinematics
-from kr210_sim.robot.quaternions import pose_matrix
-
-def handle_calculate_IK(req):
-    points = []
-    for pose in req.poses:
-        time.sleep(0.05)
-        p, o = pose.position, pose.orientation
-        point = JointTrajectoryPoint()
-        T = pose_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
-        point.positions = list(kinematics.committed().nearest(T, np.zeros(6)))
-        points.append(point)
-    return CalculateIKResponse(points)
-"""
+SLOW = ros_class.sleeping_server(0.05)
 
 
 def test_a_slow_server_is_graded_on_what_fits_in_its_time(tmp_path: Path) -> None:

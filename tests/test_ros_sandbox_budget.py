@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import ros_class
 
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.ik_guard import assess
@@ -19,24 +20,7 @@ Q = np.array([[0.1 * i, 0.2, -0.1, 0.3, 0.5, 0.1] for i in range(4)])
 POSES = [kinematics.forward(q) for q in Q]
 
 #: 0.3 s a pose (asleep: the machine's load does not change it), above a 0.1 s limit per pose.
-SLOW = """import rospy, time
-import numpy as np
-from kuka_arm.srv import *
-from trajectory_msgs.msg import JointTrajectoryPoint
-from kr210_sim.robot import kinematics
-from kr210_sim.robot.quaternions import pose_matrix
-
-def handle_calculate_IK(req):
-    points = []
-    for pose in req.poses:
-        time.sleep(0.3)
-        p, o = pose.position, pose.orientation
-        point = JointTrajectoryPoint()
-        T = pose_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
-        point.positions = list(kinematics.committed().nearest(T, np.zeros(6)))
-        points.append(point)
-    return CalculateIKResponse(points)
-"""
+SLOW = ros_class.sleeping_server(0.3)
 
 
 def test_a_slow_server_s_request_may_take_its_budget(tmp_path: Path) -> None:

@@ -513,7 +513,8 @@ def singular_wrist(records: Sequence[dict[str, Any]]) -> Finding | None:
         "singular_wrist",
         f"{len(bad)} answer{'s' if len(bad) != 1 else ''} with the wrist straight (theta5 = 0, "
         f"e.g. case {r['name']}: theta4 = {r['q'][3]:.4f}, theta6 = {r['q'][5]:.4f}) "
-        f"{'reach' if len(bad) != 1 else 'reaches'} the position with the orientation off by up to {1000 * worst:.1f} mrad: there only "
+        f"{'reach' if len(bad) != 1 else 'reaches'} the position with the orientation off by "
+        f"up to {1000 * worst:.1f} mrad: there only "
         "theta4 + theta6 is defined, and the entries of R3_6 that give them apart are rounding "
         "noise; when sin(theta5) is about 0, keep theta4 (0, or the previous answer's) and "
         "take theta6 from the entries that hold theta4 + theta6",
