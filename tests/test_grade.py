@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import selectors
 import shlex
 import signal
 import subprocess
@@ -22,6 +23,7 @@ import pytest
 
 from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
+from kr210_sim.eval import grade as grade_module
 from kr210_sim.eval.grade import GradeSettings, relevant_line
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -511,3 +513,24 @@ def test_a_signal_during_start_up_gives_a_report_of_no_students(tmp_path: Path) 
     data = json.loads(report.read_text())
     assert data["interrupted_by"] == "SIGTERM" and data["students"] == []
     assert "INTERRUPTED (SIGTERM)" in out
+
+
+def test_a_grading_process_s_pipes_may_reach_their_end_in_either_order() -> None:
+    """Its stderr at its end before its record pipe: closing the record pipe then asked the
+    closed stderr for its fileno, and the whole grade ended in a traceback ("I/O operation on
+    closed file"; once in five CI runs of the hostile class)."""
+    proc = subprocess.Popen([sys.executable, "-c", "pass"], stderr=subprocess.PIPE)
+    assert proc.stderr is not None
+    record_r, record_w = os.pipe()
+    os.close(record_w)
+    pool = grade_module._Pool.__new__(grade_module._Pool)
+    pool.selector = selectors.DefaultSelector()
+    run = grade_module._Running.__new__(grade_module._Running)
+    run.proc, run.fds = proc, []
+    for fd in (record_r, proc.stderr.fileno()):
+        pool.selector.register(fd, selectors.EVENT_READ, (run, "x"))
+        run.fds.append(fd)
+    pool._close(run, proc.stderr.fileno())  # stderr first
+    pool._close(run)  # then the rest: the record pipe
+    assert run.fds == [] and proc.stderr.closed
+    proc.wait()

@@ -320,8 +320,9 @@ class _Pool:
         for f in list(run.fds) if fd is None else [fd]:
             self.selector.unregister(f)
             run.fds.remove(f)
-            if run.proc.stderr is not None and f == run.proc.stderr.fileno():
-                run.proc.stderr.close()
+            err = run.proc.stderr
+            if err is not None and not err.closed and f == err.fileno():  # (closed: no fileno)
+                err.close()
             else:
                 os.close(f)
 
