@@ -20,6 +20,7 @@ The others: :func:`evaluate_job` (``evaluate``'s checks before any worker starts
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -342,7 +343,8 @@ def _guarded(pool: RenderPool) -> Any:
             pool.feed(*frame)
         except Exception as exc:
             pool.error = exc
-            pool.abort(keep=False)
+            with contextlib.suppress(RenderError):  # the encoder's own failure, said once
+                pool.abort(keep=False)
 
     return sink
 
@@ -365,7 +367,8 @@ def _finish_video(pool: RenderPool) -> tuple[int, str | None, KeyboardInterrupt 
         except RenderError as err:
             return 0, str(err), exc
     except RenderError as exc:
-        pool.abort(keep=False)
+        with contextlib.suppress(RenderError):  # the encoder's own failure, said once
+            pool.abort(keep=False)
         return 0, str(exc), None
 
 
