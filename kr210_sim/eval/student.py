@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.eval.budget import Budget, chunks, need_text, split
+from kr210_sim.eval.budget import FIRST, Budget, chunks, need_text, split
 from kr210_sim.eval.diagnose import diagnose
 from kr210_sim.eval.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.eval.record import VERDICTS, blank_record, seal
@@ -235,17 +235,12 @@ def replay_command(job: StudentJob, cycle: int) -> str:
     )
 
 
-#: The ik-check's own groups: the cases the original exercise asked for (IK_debug.py's and the
-#: cell's poses), which a ROS-form server must answer inside the limits.
-EXERCISE_GROUPS = ("ik_debug", "cell")
-
-
 def one_branch(r: dict[str, Any]) -> bool:
     """Whether case record ``r`` failed only because its answer, which reaches the pose, lies
     outside the joint limits, on a pose outside the exercise's own groups: what an IK of one
     branch (the exercise's) does where only another branch reaches the pose inside them."""
     return (
-        r["group"] not in EXERCISE_GROUPS
+        r["group"] not in FIRST  # the exercise's own cases: IK_debug.py's and the cell's
         and not r["passed"]
         and r["q"] is not None
         and r["error"] is None
@@ -319,10 +314,10 @@ def _verdict(
     run, when the time budget cut the run), else ``fail``; and the one line that says so.
 
     A ROS-form server (``ros``) is graded on what the exercise asked of it: its one branch
-    inside the limits for the exercise's own cases (:data:`EXERCISE_GROUPS`), and poses reached
-    elsewhere; a case that only another branch reaches inside the limits (``ik["one_branch"]``)
-    is counted and said, not failed. A function of our form is asked for the nearest of all
-    branches (it is given ``q_ref``), so every case counts."""
+    inside the limits for the exercise's own cases (:data:`~kr210_sim.eval.budget.FIRST`), and
+    poses reached elsewhere; a case that only another branch reaches inside the limits
+    (``ik["one_branch"]``) is counted and said, not failed. A function of our form is asked for
+    the nearest of all branches (it is given ``q_ref``), so every case counts."""
     cut = budget is not None and budget.cut_run
     cycles = run["cycles_run"] if cut else job.cycles
     need = math.ceil(job.min_success * cycles - 1e-9)
