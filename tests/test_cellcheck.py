@@ -223,3 +223,23 @@ def test_check_serves_the_slots_ahead_of_a_ready_pose_facing_away(
     out = capsys.readouterr().out
     assert out.startswith("cell published: every slot and drop spot can be served")
     assert "slot 8         yes   yes    1 direct" in out and "jumps" not in out
+
+
+def test_check_and_run_plan_a_slot_alike_where_its_search_is_a_toss_up() -> None:
+    """Random cell 7030's slot 2: its approach's RRTConnect finds a path within the budget with
+    about two seeds in three. check plans from the nominal slot, run from the cylinder settled
+    2.6 um lower: both must draw the same seed (check refused the slot, run planned and ran it
+    clean, before plans were seeded from their ends rounded to 0.01 rad)."""
+    from kr210_sim.errors import NoPathError
+    from kr210_sim.plan.cellcheck import _Check
+
+    model = compile_cell(parse_cell(random_cell(7030).text, "random_7030.toml"))
+    served = _Check.of(model, None, None).slot_row(2).served
+    runner = Runner(RunConfig(cycles=1), model=model)
+    sample, k = runner.start_cycle(1, 2)
+    try:
+        runner.plan_cycle(runner.observe_target(k), sample.spec)
+        planned = True
+    except NoPathError:
+        planned = False
+    assert planned == served

@@ -26,9 +26,9 @@ from kr210_sim.sim.runner import RunConfig, Runner
 CELLS = PUBLISHED_CELL.parent
 
 
-def _planner(model: mujoco.MjModel, seed: int = 0) -> Planner:
+def _planner(model: mujoco.MjModel) -> Planner:
     robot = load_robot()
-    return Planner(robot, MotionConfig(), None, CollisionChecker(model, Kinematics(robot)), seed)
+    return Planner(robot, MotionConfig(), None, CollisionChecker(model, Kinematics(robot)))
 
 
 def _box(
@@ -118,8 +118,8 @@ def test_a_column_beside_the_shelf_is_picked_past_and_run_clear() -> None:
 def test_ompl_moves_are_seeded_clear_and_not_far_above_their_bound() -> None:
     model = model_for(cell=CELLS / "column.toml")
     slot = np.array([2.6, 0.9, 0.914])
-    a = _planner(model, seed=7).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
-    b = _planner(model, seed=7).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
+    a = _planner(model).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
+    b = _planner(model).plan_grasp(np.array(MotionConfig().ready_q), slot, 0.05, 0.25)
     move = a.approach_ptp
     assert move.planner == "ompl" and b.approach_ptp.planner == "ompl"
     ts = np.linspace(0, move.trajectory.duration, 50)

@@ -104,7 +104,8 @@ class Planner:
             move with no collision-free plan raises :class:`~kr210_sim.errors.NoPathError`.
             With a checker, the ready pose is the cell's (``[robot] ready_q``) when it sets one,
             and the clear pose nearest it when it collides. None: moves are not checked.
-        seed: The run's seed: OMPL's plans are seeded from it.
+            OMPL's searches are seeded from their own ends, not from the run's seed: a cell
+            ``check`` serves is served in a run of any seed.
     """
 
     def __init__(
@@ -113,7 +114,6 @@ class Planner:
         motion: MotionConfig,
         ik: UserIk | None = None,
         checker: CollisionChecker | None = None,
-        seed: int = 0,
     ) -> None:
         self.robot = robot
         #: The kinematics of ``robot``.
@@ -133,7 +133,7 @@ class Planner:
         self._returns: dict[bytes, Move] = {}
         self.router: Router | None = None
         if checker is not None:
-            self.router = Router(checker, self.kinematics, self.limits, seed, self.grip_limits)
+            self.router = Router(checker, self.kinematics, self.limits, self.grip_limits)
             cell_ready = ready_q_of(checker.model)
             if cell_ready is not None:
                 self.ready_q = cell_ready

@@ -67,7 +67,6 @@ class Router:
         checker: The collision checker of the cell.
         kin: The arm's kinematics.
         limits: Joint limits.
-        seed: The run's seed (OMPL's plans are seeded from it).
         grip_limits: Joint limits of moves that hold the target (default: ``limits``): a move
             is timed with them when the checker holds a target (:meth:`~CollisionChecker.hold`).
     """
@@ -77,7 +76,6 @@ class Router:
         checker: CollisionChecker,
         kin: Kinematics,
         limits: JointLimits,
-        seed: int = 0,
         grip_limits: JointLimits | None = None,
     ) -> None:
         self.checker = checker
@@ -87,7 +85,7 @@ class Router:
         self._planned: dict[bytes, Routed | NoPathError] = {}
         #: OMPL searches made (a remembered move is not searched again).
         self.searches = 0
-        self.sampler = SamplingPlanner(checker, limits.lower, limits.upper, seed)
+        self.sampler = SamplingPlanner(checker, limits.lower, limits.upper)
 
     def hit(self, traj: Trajectory) -> Hit | None:
         """The first collision along ``traj`` under the checker's current hold, or None."""

@@ -12,9 +12,13 @@ deg)``, so its distance is the weighted L1 sum ``sum_j w_j |dq_j|`` [m], and OMP
 every 1 cm of that distance: no two checked states are more than 1 cm of gripper travel or 1 deg
 per joint apart.
 
-**Determinism.** Each plan seeds OMPL's random generator (``ompl.util.RNG``) from the run's
-seed and the plan's own start and goal, so a plan does not depend on what was planned before it
-(any number of evaluation workers gives the same plans). The search's budget is a number of
+**Determinism.** Each plan seeds OMPL's random generator (``ompl.util.RNG``) from its own start
+and goal, each joint rounded to :data:`SEED_GRID`, so a plan depends on nothing but its problem:
+not on what was planned before it (any number of evaluation workers gives the same plans), not
+on the run's seed, and not on the micrometres by which a cylinder settles on its board
+(``check`` plans from the nominal slot, ``run`` from the settled cylinder: seeded from the exact
+ends, the two searched with other random numbers, and a move RRTConnect solves with some of them
+only was served by one and refused by the other). The search's budget is a number of
 validity checks (:data:`SOLVE_CHECKS`), never seconds, and simplification runs a fixed number of
 rounds, so a loaded or slow machine finds the same paths as a quiet one, only later.
 """
@@ -49,8 +53,12 @@ HELD_Q4 = math.pi / 4
 RRT_RANGE = 2.0
 #: Most validity checks one RRTConnect search may make (~1 s of checks at ~30 us each here). A
 #: budget in checks, not seconds, so that whether a plan is found does not depend on how busy
-#: the machine is: the same seed gives the same plan or the same ``no_path`` anywhere.
+#: the machine is: the same ends give the same plan or the same ``no_path`` anywhere.
 SOLVE_CHECKS = 30_000
+#: Step [rad] each joint of a plan's ends is rounded to before the plan's seed is drawn from
+#: them: ends a few micrometres of gripper travel apart (some 1e-6 rad a joint) get the same
+#: seed unless a joint lies that close to a step's edge (a chance of about 1e-4 a joint).
+SEED_GRID = 0.01
 #: Most rounds of vertex reduction and close-vertex collapse.
 SIMPLIFY_ROUNDS = 3
 
@@ -97,12 +105,13 @@ def lever_arms(model: mujoco.MjModel) -> FloatArray:
     return np.array([links[j:].sum() + hand for j in range(6)])
 
 
-def plan_seed(run_seed: int, q_start: FloatArray, q_goal: FloatArray, held: bool) -> int:
-    """OMPL seed of one plan: from the run's seed and the plan's ends (never 0)."""
+def plan_seed(q_start: FloatArray, q_goal: FloatArray, held: bool) -> int:
+    """OMPL seed of one plan: from its ends [rad], each joint in steps of :data:`SEED_GRID`,
+    and whether a part is held (never 0)."""
     h = hashlib.sha256()
-    h.update(str(int(run_seed)).encode())  # any size: evaluation seeds exceed 64 bits
-    h.update(np.round(np.asarray(q_start, dtype=np.float64), 9).tobytes())
-    h.update(np.round(np.asarray(q_goal, dtype=np.float64), 9).tobytes())
+    for q in (q_start, q_goal):
+        steps = np.rint(np.asarray(q, dtype=np.float64).reshape(6) / SEED_GRID).astype(np.int64)
+        h.update(steps.tobytes())
     h.update(b"held" if held else b"free")
     return int.from_bytes(h.digest()[:4], "little") | 1
 
@@ -121,20 +130,14 @@ class SamplingPlanner:
         checker: The validity check (its :meth:`~CollisionChecker.hold` state is used).
         lower: Lower joint limits [rad], shape (6,).
         upper: Upper joint limits [rad], shape (6,).
-        seed: The run's seed.
     """
 
     def __init__(
-        self,
-        checker: CollisionChecker,
-        lower: npt.ArrayLike,
-        upper: npt.ArrayLike,
-        seed: int = 0,
+        self, checker: CollisionChecker, lower: npt.ArrayLike, upper: npt.ArrayLike
     ) -> None:
         self.checker = checker
         self.lower = np.asarray(lower, dtype=np.float64)
         self.upper = np.asarray(upper, dtype=np.float64)
-        self.seed = seed
         self.weights = np.maximum(lever_arms(checker.model), SAMPLE_TRAVEL / SAMPLE_ANGLE)
 
     def _coordinates(self, held: bool) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -219,7 +222,7 @@ class SamplingPlanner:
                 hit = self.checker.scan(q[None])
                 blocked = hit.describe() if hit is not None else "it is outside the limits"
                 raise NoPathError(f"the {what} of the move collides: {blocked}")
-        _seed(plan_seed(self.seed, qs, qg, held))
+        _seed(plan_seed(qs, qg, held))
         M, lo, hi, w = self._coordinates(held)
         M_inv = np.linalg.inv(M)
         xs, xg = M_inv @ qs, M_inv @ qg

@@ -180,7 +180,7 @@ class Runner:
         self.dropped = [0] * len(self.landing)
         if checker is None:
             checker = CollisionChecker(self.model, Kinematics(self.robot))
-        self.planner = Planner(self.robot, config.motion, ik, checker, config.seed)
+        self.planner = Planner(self.robot, config.motion, ik, checker)
         self.planner.check_ready()
         self.rng = rng if rng is not None else np.random.default_rng(config.seed)
         self.cell.reset(self.planner.ready_q)
