@@ -47,6 +47,7 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/robot/ros/shims/tf/transformations.py",
         "kr210_sim/robot/ros/shims/kuka_arm/srv/__init__.py",
     } <= names
+    assert any(n.startswith("kr210_sim/robot/_ik_native.") and n.endswith(".so") for n in names)
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
     assert b"MIT License" in zipfile.ZipFile(wheel).read(licence)
 
@@ -70,6 +71,11 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         [str(python), "-c", "import kr210_sim.util.paths as p; print(p.ROOT)"], elsewhere, env
     )
     assert Path(where.strip()) == site / "kr210_sim"  # the installed copy, not the sources
+    native = (
+        "from kr210_sim.robot import ik_scalar as s, _ik_native as n; print(s.NATIVE, n.__file__)"
+    )
+    flag, path = _run([str(python), "-c", native], elsewhere, env).split()
+    assert flag == "True" and path.startswith(str(site / "kr210_sim" / "robot"))  # compiled IK
     shims = (  # the ROS modules an original-form IK_server.py imports, from the installed copy
         "import sys; from kr210_sim.robot.ros.server import SHIMS; sys.path.insert(0, str(SHIMS)); "
         "import rospy, tf.transformations as t, kuka_arm.srv; print(t.__file__)"

@@ -19,13 +19,21 @@ split into helpers for the arm and the wrist, the calls and their arguments cost
 The arithmetic is the path's they replace, operation by operation (the same floats on random,
 singular, limit and unreachable poses); tests compare both with the batch path.
 
+The same two functions are compiled too (``_ik_native.c``, built by ``pip install`` where a C
+compiler is at hand): :func:`inverse_one` and :func:`nearest_one` are the compiled ones when
+the extension was built and imports, :func:`inverse_one_py` and :func:`nearest_one_py`
+otherwise, or when the environment sets ``KR210_SIM_PURE_IK=1``. :data:`NATIVE` says which.
+Both paths give the same floats (tests compare them pose by pose).
+
 Angles in [rad], lengths in [m].
 """
 
 from __future__ import annotations
 
 import math
+import os
 import struct
+from collections.abc import Callable
 from math import acos, atan2, cos, hypot, isfinite, sin
 from typing import Any
 
@@ -430,8 +438,9 @@ def nearest_solution(flat: list[float], c: tuple[Any, ...], ref: list[float]) ->
     return best
 
 
-def inverse_one(T: Any, g: Geometry) -> FloatArray:
-    """:meth:`Kinematics.inverse` of one pose: (k, 6) [rad], k = 0 ... 8."""
+def inverse_one_py(T: Any, g: Geometry) -> FloatArray:
+    """:meth:`Kinematics.inverse` of one pose on the pure-Python path: (k, 6) [rad],
+    k = 0 ... 8."""
     if type(T) is not np.ndarray or T.dtype is not _F64:
         T = np.asarray(T, dtype=np.float64)
     flat: list[float] = T.ravel().tolist()
@@ -462,9 +471,9 @@ def reference(q_ref: Any) -> list[float]:
     return ref
 
 
-def nearest_one(T: Any, q_ref: Any, g: Geometry) -> list[float]:
-    """:meth:`Kinematics.nearest` of one pose: the six joints [rad], empty when the pose has no
-    solution inside the limits."""
+def nearest_one_py(T: Any, q_ref: Any, g: Geometry) -> list[float]:
+    """:meth:`Kinematics.nearest` of one pose on the pure-Python path: the six joints [rad],
+    empty when the pose has no solution inside the limits."""
     if type(T) is not np.ndarray or T.dtype is not _F64:
         T = np.asarray(T, dtype=np.float64)
     flat: list[float] = T.ravel().tolist()
@@ -478,3 +487,30 @@ def nearest_one(T: Any, q_ref: Any, g: Geometry) -> list[float]:
         ref = reference(q_ref)
     hit = _CACHE.get(id(g))
     return nearest_solution(flat, hit[1] if hit is not None and hit[0] is g else constants(g), ref)
+
+
+def _load_native() -> Any:
+    """The compiled module, set up with this module's functions to fall back on; None when it
+    was not built or ``KR210_SIM_PURE_IK=1``."""
+    if os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0"):
+        return None
+    try:
+        from kr210_sim.robot import _ik_native
+    except ImportError:
+        return None
+    _ik_native.setup(inverse_one_py, nearest_one_py, check_pose_flat, constants, np.empty)
+    return _ik_native
+
+
+_NATIVE_MODULE = _load_native()
+#: Whether :func:`inverse_one` and :func:`nearest_one` are the compiled functions.
+NATIVE: bool = _NATIVE_MODULE is not None
+#: :meth:`Kinematics.inverse` of one pose: (k, 6) [rad], k = 0 ... 8 (compiled when NATIVE).
+inverse_one: Callable[[Any, Geometry], FloatArray] = (
+    _NATIVE_MODULE.inverse_one if NATIVE else inverse_one_py
+)
+#: :meth:`Kinematics.nearest` of one pose: the six joints [rad], empty when the pose has no
+#: solution inside the limits (compiled when NATIVE).
+nearest_one: Callable[[Any, Any, Geometry], list[float]] = (
+    _NATIVE_MODULE.nearest_one if NATIVE else nearest_one_py
+)
