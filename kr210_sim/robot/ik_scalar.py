@@ -495,7 +495,7 @@ def _load_native() -> Any:
     if os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0"):
         return None
     try:
-        from kr210_sim.robot import _ik_native
+        import kr210_sim.robot._ik_native as _ik_native
     except ImportError:
         return None
     _ik_native.setup(inverse_one_py, nearest_one_py, check_pose_flat, constants, np.empty)
