@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Iterator
 
 import pytest
 
@@ -76,6 +77,31 @@ def test_a_cuttable_step_is_stopped_by_a_further_signal() -> None:
         assert caught.value.signum == signal.SIGINT
 
 
+@pytest.fixture
+def sighup_handled() -> Iterator[None]:
+    """SIGHUP at its default action while the test runs: under ``nohup`` (a CI job started so)
+    it is ignored, and an ignored signal is left ignored (the next test)."""
+    previous = signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+def test_a_signal_the_parent_ignored_stays_ignored() -> None:
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as ``nohup`` leaves it
+    try:
+        with terminate_as_interrupt():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.05)
+            assert received() is None
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+@pytest.mark.usefixtures("sighup_handled")
 def test_winding_up_under_the_command_holds_even_a_first_signal() -> None:
     with terminate_as_interrupt():
         with winding_up() as held:
