@@ -20,9 +20,13 @@ to it as ``T_base_gripper @ Ry(90 deg)``, converted before any clock runs.
    free joint when they have the same arm branches (q2, q3, and as many distinct q5 for each):
    on joint 1's axis q1 is free, at q5 = 0 only q4 + q6 is defined.
 2. Speed: one pose all branches, the solution nearest a reference q (near a solution, and
-   drawn at random), a batch. The peer is called through its compiled ``Robot``, under the
-   scipy wrapper (the wrapper's ``inverse`` takes a ``RigidTransform``: 0.7 us more a call
-   when one is made beforehand, some 50 us when it is made from the 4x4 matrix). Single calls
+   drawn at random), a batch. Ours twice for one pose, through the same public calls
+   (``kin.inverse``, ``kin.nearest``): the compiled single-pose path (``_ik_native``, what a
+   ``pip install`` with a C compiler uses) and the pure-Python one (what it falls back to,
+   ``KR210_SIM_PURE_IK=1``), swapped in for the measurement. The peer is called through its
+   compiled ``Robot``, under the scipy wrapper (the wrapper's ``inverse`` takes a
+   ``RigidTransform``: 0.7 us more a call when one is made beforehand, some 50 us when it is
+   made from the 4x4 matrix). Single calls
    in CPU time of the calling thread, medians of interleaved repeats, so both sides see the
    same load.
 """
@@ -40,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from kr210_sim.robot import ik_scalar
 from kr210_sim.robot import kinematics as kin
 
 G = kin.committed().geometry
@@ -208,18 +213,40 @@ def interleaved(fns: list[Callable[[], float]], repeats: int) -> list[float]:
     return [statistics.median(r) for r in runs]
 
 
-def per_call(fn: Callable[..., Any], args: list[tuple[Any, ...]]) -> Callable[[], float]:
+def per_call(
+    fn: Callable[..., Any], args: list[tuple[Any, ...]], pure: bool = False
+) -> Callable[[], float]:
     """A measurement: mean CPU time of the calling thread per call over ``args`` [us] (both
     sides compute in the calling thread; CPU time leaves out the time other processes hold the
-    core)."""
+    core). With ``pure``, ``kin``'s single-pose functions are the pure-Python ones meanwhile."""
 
     def run() -> float:
-        t = time.thread_time()
-        for a in args:
-            fn(*a)
-        return (time.thread_time() - t) / len(args) * 1e6
+        saved = kin.inverse_one, kin.nearest_one
+        if pure:
+            kin.inverse_one, kin.nearest_one = ik_scalar.inverse_one_py, ik_scalar.nearest_one_py
+        try:
+            t = time.thread_time()
+            for a in args:
+                fn(*a)
+            return (time.thread_time() - t) / len(args) * 1e6
+        finally:
+            kin.inverse_one, kin.nearest_one = saved
 
     return run
+
+
+def three_ways(
+    ours: Callable[..., Any],
+    ours_args: list[tuple[Any, ...]],
+    theirs: Callable[..., Any],
+    their_args: list[tuple[Any, ...]],
+    repeats: int,
+) -> list[float]:
+    """Medians [us] of one call: ours compiled (as installed), ours pure Python, the peer."""
+    return interleaved(
+        [per_call(ours, ours_args), per_call(ours, ours_args, pure=True),
+         per_call(theirs, their_args)], repeats,
+    )  # fmt: skip
 
 
 def per_second(fn: Callable[[], Any], n: int) -> Callable[[], float]:
@@ -247,16 +274,17 @@ def speed(peer: Any, calls: int, batch: int, repeats: int) -> None:
     flat = np.ascontiguousarray(Tp[:batch].reshape(-1, 16))
     limits = list(zip(G.lower.tolist(), G.upper.tolist(), strict=True))
     kin.inverse(T[:1000])  # warm up (thread pool)
-    one, near = interleaved(
-        [per_call(kin.inverse, [(T[i],) for i in range(calls)]),
-         per_call(peer.inverse, [(Tp[i], None, None) for i in range(calls)])], repeats,
-    ), interleaved(
-        [per_call(kin.nearest, [(T[i], ref[i]) for i in range(calls)]),
-         per_call(peer.inverse, [(Tp[i], ref_t[i], None) for i in range(calls)])], repeats,
+    n = range(calls)
+    one = three_ways(
+        kin.inverse, [(T[i],) for i in n], peer.inverse, [(Tp[i], None, None) for i in n], repeats
+    )
+    near = three_ways(
+        kin.nearest, [(T[i], ref[i]) for i in n],
+        peer.inverse, [(Tp[i], ref_t[i], None) for i in n], repeats,
     )  # fmt: skip
-    anywhere = interleaved(
-        [per_call(kin.nearest, [(T[i], far[i]) for i in range(calls)]),
-         per_call(peer.inverse, [(Tp[i], far_t[i], None) for i in range(calls)])], repeats,
+    anywhere = three_ways(
+        kin.nearest, [(T[i], far[i]) for i in n],
+        peer.inverse, [(Tp[i], far_t[i], None) for i in n], repeats,
     )  # fmt: skip
     many = interleaved(
         [
@@ -267,24 +295,32 @@ def speed(peer: Any, calls: int, batch: int, repeats: int) -> None:
         ],
         max(3, repeats // 2),
     )
-    print(f"{'call':42s} {'ours':>14s} {'peer':>14s}  speed, ours / peer")
-    for label, (mine, theirs) in (
+    if not ik_scalar.NATIVE:
+        print("the compiled path is not built here (no C compiler at install, or")
+        print("KR210_SIM_PURE_IK=1): its column is the pure-Python path again")
+    print(f"{'call':42s} {'compiled':>14s} {'pure Python':>14s} {'peer':>14s}  peer / ours, each")
+    for label, (compiled, pure, theirs) in (
         ("one pose, all branches", one),
         ("nearest to a reference q (near a solution)", near),
         ("nearest to a reference q drawn at random", anywhere),
     ):
-        print(f"{label:42s} {mine:11.2f} us {theirs:11.2f} us  {theirs / mine:.2f}")
+        print(
+            f"{label:42s} {compiled:11.2f} us {pure:11.2f} us {theirs:11.2f} us"
+            f"  {theirs / compiled:.2f}, {theirs / pure:.2f}"
+        )
+    print(f"{'':42s} {'ours':>14s} {'':>14s} {'peer':>14s}  ours / peer")
     for label, peer_rate in (
         ("peer: reach, 1 thread", many[1]),
         ("peer: reach, all cores", many[2]),
         ("peer: batch_inverse", many[3]),
     ):
         print(
-            f"{f'batch of {batch:,} ({label})':42s} {many[0] / 1e3:9,.0f} k/s"
-            f" {peer_rate / 1e3:9,.0f} k/s  {many[0] / peer_rate:.2f}"
+            f"{f'batch of {batch:,} ({label})':42s} {many[0] / 1e3:10,.0f} k/s {'':>14s}"
+            f" {peer_rate / 1e3:10,.0f} k/s  {many[0] / peer_rate:.2f}"
         )
     print(
-        "ours: inverse(T), nearest(T, q_ref), inverse(poses) (every branch inside the limits).\n"
+        "ours: inverse(T), nearest(T, q_ref), inverse(poses) (every branch inside the limits);"
+        " one pose compiled (when built) and in pure Python, the batch in numpy.\n"
         "peer: Robot.inverse(T), inverse(T, q_ref) (every solution, nearest first),"
         " reach(poses, limits) (every branch, with its Jacobian's smallest singular value),"
         " batch_inverse(poses, q0) (one solution a pose, each nearest the one before).\n"
