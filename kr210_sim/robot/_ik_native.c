@@ -110,6 +110,87 @@ static int wrap_into(double v, double lo, double hi, double *out)
     return 0;
 }
 
+/* v as a value of joint j inside its limits: v itself where it already is one (or the joint's
+   range holds all of (-pi, pi], wide), else wrap_into's; 0 when no 2 pi shift brings it in
+   (Python: the inline limit checks of solutions and nearest_solution). */
+static inline int fit(double v, int wide, const Consts *c, int j, double *out)
+{
+    if (wide || (-PI_ < v && c->lo_s[j] <= v && v <= c->hi_s[j])) {
+        *out = v;
+        return 1;
+    }
+    return wrap_into(v, c->lo[j], c->hi[j], out);
+}
+
+/* The same for joints 2 and 3, whose values come from sums, not atan2 (inner: the joint's range
+   lies inside (-pi, pi], so no 2 pi shift brings a value from there into it). */
+static inline int fit_arm(double v, int inner, const Consts *c, int j, double *out)
+{
+    if (c->lo_s[j] <= v && v <= c->hi_s[j] && (inner || (-PI_ < v && v <= PI_))) {
+        *out = v;
+        return 1;
+    }
+    if (inner && -PI_ < v && v <= PI_) return 0;
+    return wrap_into(v, c->lo[j], c->hi[j], out);
+}
+
+/* Swap the two entries of a pair (the two shoulders, the two arms, sorted by cost). */
+static inline void swap2(double *a)
+{
+    double t = a[0];
+    a[0] = a[1], a[1] = t;
+}
+
+static inline void swap2i(int *a)
+{
+    int t = a[0];
+    a[0] = a[1], a[1] = t;
+}
+
+/* Joint 1's rotation taken out of the pose's rotation (row-major p): the entries of
+   Rz(q1)^T R that the arm and the wrist need, worked out once a shoulder, when its first arm
+   is solved. */
+static inline void shoulder_rows(double q1, const double *p, double *t00, double *t01,
+                                 double *t02, double *m10, double *m11)
+{
+    double c1 = cos(q1), s1 = sin(q1);
+    *t00 = c1 * p[0] + s1 * p[4];
+    *t01 = c1 * p[1] + s1 * p[5];
+    *t02 = c1 * p[2] + s1 * p[6];
+    *m10 = -s1 * p[0] + c1 * p[4];
+    *m11 = -s1 * p[1] + c1 * p[5];
+}
+
+/* q4 and q6 of a wrist that is not straight: flip +1 for q5 > 0 as atan2 gives it, -1 for its
+   mirror (q5 < 0); m: entries of the wrist's rotation (Python: the two flips written out). */
+static inline void wrist_flip(int flip, double m10, double m20, double m01, double m02,
+                              double *v4, double *v6)
+{
+    if (flip > 0) {
+        *v4 = atan2(m10, -m20);
+        *v6 = atan2(m01, m02);
+    } else {
+        *v4 = atan2(-m10, m20);
+        *v6 = atan2(-m01, -m02);
+    }
+}
+
+/* The cosine of the elbow's angle for the wrist centre at (x, zz) in the arm's plane [m],
+   rounded into [-1, 1] from up to 1e-12 beyond; 0 when the centre is out of the arm's reach. */
+static inline int elbow_cos(double x, double zz, const Consts *c, double *cos_d)
+{
+    double v = (x * x + zz * zz - c->a2sq - c->Lsq) / c->den;
+    if (v > 1.0) {
+        if (v > 1.0 + 1e-12) return 0;
+        v = 1.0;
+    } else if (v < -1.0) {
+        if (v < -1.0 - 1e-12) return 0;
+        v = -1.0;
+    }
+    *cos_d = v;
+    return 1;
+}
+
 static double best_twin(double value, double ref, double lo, double hi)
 {
     double best = value, best_d = INFINITY, k0, v;
@@ -134,8 +215,8 @@ static double best_twin(double value, double ref, double lo, double hi)
 /* ------------------------------------------------------------------ every branch */
 static int solve_all(const double *p, const Consts *c, double *out)
 {
-    double r00 = p[0], r01 = p[1], r02 = p[2], px = p[3], r10 = p[4], r11 = p[5], r12 = p[6];
-    double py = p[7], r20 = p[8], r21 = p[9], r22 = p[10], pz = p[11];
+    double r00 = p[0], px = p[3], r10 = p[4], py = p[7], r20 = p[8], r21 = p[9], r22 = p[10];
+    double pz = p[11];
     double wx = px - c->dg * r00, wy = py - c->dg * r10, wz = pz - c->dg * r20;
     double base_q1 = atan2(wy, wx), rho = py_hypot(wx, wy), zz = wz - c->d0 - c->h1;
     int n = 0, back;
@@ -149,14 +230,7 @@ static int solve_all(const double *p, const Consts *c, double *out)
             q1 = base_q1;
             x = rho - c->a1;
         }
-        cos_d = (x * x + zz * zz - c->a2sq - c->Lsq) / c->den;
-        if (cos_d > 1.0) {
-            if (cos_d > 1.0 + 1e-12) continue;
-            cos_d = 1.0;
-        } else if (cos_d < -1.0) {
-            if (cos_d < -1.0 - 1e-12) continue;
-            cos_d = -1.0;
-        }
+        if (!elbow_cos(x, zz, c, &cos_d)) continue;
         q1w = q1;
         if (!(-PI_ < q1 && q1 <= PI_ && (c->wide1 || (c->lo_s[0] <= q1 && q1 <= c->hi_s[0])))) {
             if (!wrap_into(q1, c->lo[0], c->hi[0], &q1w)) continue;
@@ -168,25 +242,12 @@ static int solve_all(const double *p, const Consts *c, double *out)
         for (ie = 0; ie < nel; ie++) {
             double elbow = ie ? -1.0 : 1.0, q2, q2w, q3, q3w, q23, c23, s23, m00, m20, s5;
             q2 = HALF_PI_ - (A - elbow * B);
-            q2w = q2;
-            if (!(c->lo_s[1] <= q2 && q2 <= c->hi_s[1] && (c->inner2 || (-PI_ < q2 && q2 <= PI_)))) {
-                if (c->inner2 && -PI_ < q2 && q2 <= PI_) continue;
-                if (!wrap_into(q2, c->lo[1], c->hi[1], &q2w)) continue;
-            }
+            if (!fit_arm(q2, c->inner2, c, 1, &q2w)) continue;
             q3 = -(elbow * ac) - c->phi - HALF_PI_;
-            q3w = q3;
-            if (!(c->lo_s[2] <= q3 && q3 <= c->hi_s[2] && (c->inner3 || (-PI_ < q3 && q3 <= PI_)))) {
-                if (c->inner3 && -PI_ < q3 && q3 <= PI_) continue;
-                if (!wrap_into(q3, c->lo[2], c->hi[2], &q3w)) continue;
-            }
+            if (!fit_arm(q3, c->inner3, c, 2, &q3w)) continue;
             if (!rows) {
-                double c1 = cos(q1), s1 = sin(q1);
                 rows = 1;
-                t00 = c1 * r00 + s1 * r10;
-                t01 = c1 * r01 + s1 * r11;
-                t02 = c1 * r02 + s1 * r12;
-                m10 = -s1 * r00 + c1 * r10;
-                m11 = -s1 * r01 + c1 * r11;
+                shoulder_rows(q1, p, &t00, &t01, &t02, &m10, &m11);
             }
             q23 = q2 + q3;
             c23 = cos(q23);
@@ -203,14 +264,8 @@ static int solve_all(const double *p, const Consts *c, double *out)
                     v5 = PI_;
                     v6 = atan2(-m21, m11);
                 }
-                if (!(c->wide5 || (-PI_ < v5 && c->lo_s[4] <= v5 && v5 <= c->hi_s[4]))) {
-                    if (!wrap_into(v5, c->lo[4], c->hi[4], &w)) continue;
-                    v5 = w;
-                }
-                if (!(c->wide6 || (-PI_ < v6 && c->lo_s[5] <= v6 && v6 <= c->hi_s[5]))) {
-                    if (!wrap_into(v6, c->lo[5], c->hi[5], &w)) continue;
-                    v6 = w;
-                }
+                if (!fit(v5, c->wide5, c, 4, &v5)) continue;
+                if (!fit(v6, c->wide6, c, 5, &v6)) continue;
                 if (!(c->wide4 || (c->lo_s[3] <= 0.0 && 0.0 <= c->hi_s[3]))) {
                     if (!wrap_into(0.0, c->lo[3], c->hi[3], &w)) continue;
                     v4 = w;
@@ -236,26 +291,11 @@ static int solve_all(const double *p, const Consts *c, double *out)
                     continue;
                 }
                 for (flip = 0; flip < 2; flip++) {
-                    double v4, v5 = flip ? -q5 : q5, v6, w;
-                    if (!(c->wide5 || (-PI_ < v5 && c->lo_s[4] <= v5 && v5 <= c->hi_s[4]))) {
-                        if (!wrap_into(v5, c->lo[4], c->hi[4], &w)) continue;
-                        v5 = w;
-                    }
-                    if (!flip) {
-                        v4 = atan2(m10, -m20);
-                        v6 = atan2(m01, m02);
-                    } else {
-                        v4 = atan2(-m10, m20);
-                        v6 = atan2(-m01, -m02);
-                    }
-                    if (!(c->wide4 || (-PI_ < v4 && c->lo_s[3] <= v4 && v4 <= c->hi_s[3]))) {
-                        if (!wrap_into(v4, c->lo[3], c->hi[3], &w)) continue;
-                        v4 = w;
-                    }
-                    if (!(c->wide6 || (-PI_ < v6 && c->lo_s[5] <= v6 && v6 <= c->hi_s[5]))) {
-                        if (!wrap_into(v6, c->lo[5], c->hi[5], &w)) continue;
-                        v6 = w;
-                    }
+                    double v4, v5 = flip ? -q5 : q5, v6;
+                    if (!fit(v5, c->wide5, c, 4, &v5)) continue;
+                    wrist_flip(flip ? -1 : 1, m10, m20, m01, m02, &v4, &v6);
+                    if (!fit(v4, c->wide4, c, 3, &v4)) continue;
+                    if (!fit(v6, c->wide6, c, 5, &v6)) continue;
                     out[n++] = q1w, out[n++] = q2w, out[n++] = q3w;
                     out[n++] = v4, out[n++] = v5, out[n++] = v6;
                 }
@@ -280,8 +320,8 @@ static inline double twin(double v, double f, const Consts *c, int j, double *d)
 /* ------------------------------------------------------------------ nearest */
 static int solve_nearest(const double *p, const Consts *c, const double *f, double *best)
 {
-    double r00 = p[0], r01 = p[1], r02 = p[2], px = p[3], r10 = p[4], r11 = p[5], r12 = p[6];
-    double py = p[7], r20 = p[8], r21 = p[9], r22 = p[10], pz = p[11];
+    double r00 = p[0], px = p[3], r10 = p[4], py = p[7], r20 = p[8], r21 = p[9], r22 = p[10];
+    double pz = p[11];
     double wx = px - c->dg * r00, wy = py - c->dg * r10, wz = pz - c->dg * r20;
     double base_q1 = atan2(wy, wx), rho = py_hypot(wx, wy), zz = wz - c->d0 - c->h1;
     double sh_bound[2], sh_q1w[2], sh_q1[2], best_cost = INFINITY, d;
@@ -299,12 +339,7 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
         ns++;
     }
     if (ns == 2 && sh_bound[1] < sh_bound[0]) {
-        double t;
-        int b;
-        t = sh_bound[0], sh_bound[0] = sh_bound[1], sh_bound[1] = t;
-        t = sh_q1w[0], sh_q1w[0] = sh_q1w[1], sh_q1w[1] = t;
-        t = sh_q1[0], sh_q1[0] = sh_q1[1], sh_q1[1] = t;
-        b = sh_back[0], sh_back[0] = sh_back[1], sh_back[1] = b;
+        swap2(sh_bound), swap2(sh_q1w), swap2(sh_q1), swap2i(sh_back);
     }
     for (is = 0; is < ns; is++) {
         double q1w = sh_q1w[is], q1 = sh_q1[is], t1, cost1, x, cos_d, ac, A, B;
@@ -316,14 +351,7 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
         t1 = twin(q1w, f[0], c, 0, &d);
         cost1 = d * d * c->w[0];
         x = back ? -rho - c->a1 : rho - c->a1;
-        cos_d = (x * x + zz * zz - c->a2sq - c->Lsq) / c->den;
-        if (cos_d > 1.0) {
-            if (cos_d > 1.0 + 1e-12) continue;
-            cos_d = 1.0;
-        } else if (cos_d < -1.0) {
-            if (cos_d < -1.0 - 1e-12) continue;
-            cos_d = -1.0;
-        }
+        if (!elbow_cos(x, zz, c, &cos_d)) continue;
         ac = acos(cos_d);
         A = atan2(zz, x);
         B = atan2(c->L * sin(ac), c->a2 + c->L * cos(ac));
@@ -331,17 +359,9 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
         for (ie = 0; ie < nel; ie++) {
             double elbow = ie ? -1.0 : 1.0, q2, q2w, q3, q3w, cost;
             q2 = HALF_PI_ - (A - elbow * B);
-            q2w = q2;
-            if (!(c->lo_s[1] <= q2 && q2 <= c->hi_s[1] && (c->inner2 || (-PI_ < q2 && q2 <= PI_)))) {
-                if (c->inner2 && -PI_ < q2 && q2 <= PI_) continue;
-                if (!wrap_into(q2, c->lo[1], c->hi[1], &q2w)) continue;
-            }
+            if (!fit_arm(q2, c->inner2, c, 1, &q2w)) continue;
             q3 = -(elbow * ac) - c->phi - HALF_PI_;
-            q3w = q3;
-            if (!(c->lo_s[2] <= q3 && q3 <= c->hi_s[2] && (c->inner3 || (-PI_ < q3 && q3 <= PI_)))) {
-                if (c->inner3 && -PI_ < q3 && q3 <= PI_) continue;
-                if (!wrap_into(q3, c->lo[2], c->hi[2], &q3w)) continue;
-            }
+            if (!fit_arm(q3, c->inner3, c, 2, &q3w)) continue;
             d = q2w - f[1];
             cost = cost1 + d * d * c->w[1];
             d = q3w - f[2];
@@ -354,13 +374,7 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
             na++;
         }
         if (na == 2 && arm_cost[1] < arm_cost[0]) {
-            double t;
-            int b;
-            t = arm_cost[0], arm_cost[0] = arm_cost[1], arm_cost[1] = t;
-            t = arm_q2w[0], arm_q2w[0] = arm_q2w[1], arm_q2w[1] = t;
-            t = arm_q3w[0], arm_q3w[0] = arm_q3w[1], arm_q3w[1] = t;
-            t = arm_q23[0], arm_q23[0] = arm_q23[1], arm_q23[1] = t;
-            b = arm_lower[0], arm_lower[0] = arm_lower[1], arm_lower[1] = b;
+            swap2(arm_cost), swap2(arm_q2w), swap2(arm_q3w), swap2(arm_q23), swap2i(arm_lower);
         }
         for (ia = 0; ia < na; ia++) {
             double cost3 = arm_cost[ia], q2w = arm_q2w[ia], q3w = arm_q3w[ia], q23 = arm_q23[ia];
@@ -368,13 +382,8 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
             int lower = arm_lower[ia], singular, flips[2], nf, k;
             if (cost3 > best_cost) break;
             if (!rows) {
-                double c1 = cos(q1), s1 = sin(q1);
                 rows = 1;
-                t00 = c1 * r00 + s1 * r10;
-                t01 = c1 * r01 + s1 * r11;
-                t02 = c1 * r02 + s1 * r12;
-                m10 = -s1 * r00 + c1 * r10;
-                m11 = -s1 * r01 + c1 * r11;
+                shoulder_rows(q1, p, &t00, &t01, &t02, &m10, &m11);
             }
             c23 = cos(q23);
             s23 = sin(q23);
@@ -411,21 +420,11 @@ static int solve_nearest(const double *p, const Consts *c, const double *f, doub
                 if (flip == 0) {
                     v4 = 0.0;
                     v6 = m00 > 0 ? atan2(m21, m11) : atan2(-m21, m11);
-                } else if (flip > 0) {
-                    v4 = atan2(m10, -m20);
-                    v6 = atan2(m01, m02);
                 } else {
-                    v4 = atan2(-m10, m20);
-                    v6 = atan2(-m01, -m02);
+                    wrist_flip(flip, m10, m20, m01, m02, &v4, &v6);
                 }
-                if (!(c->wide4 || (-PI_ < v4 && c->lo_s[3] <= v4 && v4 <= c->hi_s[3]))) {
-                    if (!wrap_into(v4, c->lo[3], c->hi[3], &w)) continue;
-                    v4 = w;
-                }
-                if (!(c->wide6 || (-PI_ < v6 && c->lo_s[5] <= v6 && v6 <= c->hi_s[5]))) {
-                    if (!wrap_into(v6, c->lo[5], c->hi[5], &w)) continue;
-                    v6 = w;
-                }
+                if (!fit(v4, c->wide4, c, 3, &v4)) continue;
+                if (!fit(v6, c->wide6, c, 5, &v6)) continue;
                 sv5 = sin(v5);
                 if (-NEAREST_STRAIGHT < sv5 && sv5 < NEAREST_STRAIGHT) {
                     double shift = f[3] - v4;
