@@ -24,9 +24,11 @@ def _run(argv: list[str], cwd: Path, env: dict[str, str] | None = None) -> str:
     return proc.stdout
 
 
-@pytest.mark.slow
-def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_path: Path) -> None:
-    # Build from a copy of the sources, so the build leaves nothing in the repository.
+PIP = [sys.executable, "-m", "pip", "--disable-pip-version-check", "--no-input"]
+
+
+def _build_wheel(tmp_path: Path, env: dict[str, str] | None = None) -> Path:
+    """A wheel built from a copy of the sources (the build leaves nothing in the repository)."""
     src = tmp_path / "src"
     src.mkdir()
     for name in SOURCES:
@@ -35,9 +37,33 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         else:
             shutil.copy2(REPO / name, src / name)
     dist = tmp_path / "dist"
-    pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "--no-input"]
-    _run([*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(dist), str(src)], tmp_path)
+    argv = [*PIP, "wheel", "--no-deps", "--no-build-isolation", "-w", str(dist), str(src)]
+    _run(argv, tmp_path, env)
     (wheel,) = dist.glob("kr210_sim-*.whl")
+    return wheel
+
+
+def _fresh_venv(tmp_path: Path, wheel: Path) -> tuple[Path, Path]:
+    """A fresh venv with ``wheel`` installed: its python and its site-packages.
+
+    The dependencies come from this environment (a path in a .pth file), so the test downloads
+    nothing. pip installs the wheel into the venv from outside it."""
+    venv = tmp_path / "venv"
+    _run([sys.executable, "-m", "venv", "--without-pip", str(venv)], tmp_path)
+    python = venv / "bin" / "python"
+    site = Path(_run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                     tmp_path).strip())  # fmt: skip
+    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    (site / "deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    _run(
+        [*PIP, "--python", str(python), "install", "--no-deps", "--no-index", str(wheel)], tmp_path
+    )
+    return python, site
+
+
+@pytest.mark.slow
+def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_path: Path) -> None:
+    wheel = _build_wheel(tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
     assert {
         "kr210_sim/assets/kr210/kr210.urdf",
@@ -50,19 +76,7 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     assert any(n.startswith("kr210_sim/robot/_ik_native.") and n.endswith(".so") for n in names)
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
     assert b"MIT License" in zipfile.ZipFile(wheel).read(licence)
-
-    # A fresh venv; the dependencies come from this environment (a path in a .pth file), so the
-    # test downloads nothing. pip installs the wheel into the venv from outside it.
-    venv = tmp_path / "venv"
-    _run([sys.executable, "-m", "venv", "--without-pip", str(venv)], tmp_path)
-    python = venv / "bin" / "python"
-    site = Path(_run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
-                     tmp_path).strip())  # fmt: skip
-    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
-    (site / "deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
-    _run(
-        [*pip, "--python", str(python), "install", "--no-deps", "--no-index", str(wheel)], tmp_path
-    )
+    python, site = _fresh_venv(tmp_path, wheel)
 
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
@@ -97,3 +111,22 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     (student,) = json.loads((elsewhere / "grade.json").read_text())["students"]
     assert student["verdict"] == "pass", student["detail"]
     assert student["spec"].endswith("alice/kuka_arm/scripts/IK_server.py:handle_calculate_IK")
+
+
+@pytest.mark.slow
+def test_an_install_without_a_c_compiler_solves_in_pure_python(tmp_path: Path) -> None:
+    """The compiled IK is optional: a build whose compiler fails ships no extension, and the
+    installed package takes the pure-Python path with the same answers."""
+    env = {**os.environ, "CC": "false"}  # a compiler that fails on every file
+    wheel = _build_wheel(tmp_path, env)
+    assert not any(n.endswith(".so") for n in zipfile.ZipFile(wheel).namelist())
+    python, _ = _fresh_venv(tmp_path, wheel)
+    code = (
+        "import numpy as np; from kr210_sim.robot import ik_scalar as s, kinematics as k; "
+        "q = np.array([0.3, 0.2, -0.4, 1.0, 0.7, -0.5]); sols = k.inverse(k.forward(q)); "
+        "print(s.NATIVE, s.inverse_one.__name__, len(sols), np.abs(sols - q).max(axis=1).min())"
+    )
+    clean = {k: v for k, v in os.environ.items() if k not in ("KR210_SIM_PURE_IK", "PYTHONPATH")}
+    native, name, n, miss = _run([str(python), "-c", code], tmp_path, clean).split()
+    assert (native, name) == ("False", "inverse_one_py")
+    assert int(n) >= 2 and float(miss) < 1e-9  # the pose's own q among its solutions
