@@ -53,6 +53,30 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+class _Version(argparse.Action):
+    """``--version``: the package's version, then what it runs on (worked out only when asked:
+    the IK's path needs numpy, which a plain start-up does not import yet)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="show the version and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any, **kwargs: Any) -> None:
+        import platform
+
+        import mujoco
+        import numpy
+
+        from kr210_sim.robot.ik_scalar import which_path
+
+        sys.stdout.write(
+            f"kr210_sim {__version__}\n"
+            f"MuJoCo {mujoco.__version__}, numpy {numpy.__version__}, "
+            f"Python {platform.python_version()}\n"
+            f"inverse kinematics of one pose: {which_path()}\n"
+        )
+        parser.exit()
+
+
 def _parsed(text: str, cast: type[int] | type[float], expected: str) -> Any:
     try:
         return cast(text)
@@ -483,7 +507,7 @@ _COMMANDS: tuple[Callable[[_Commands], None], ...] = (
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's argument parser: the global options, then each command's parser."""
     parser = _Parser(prog="kr210_sim", description="KUKA KR210 pick-and-place cell in MuJoCo.")
-    parser.add_argument("--version", action="version", version=f"kr210_sim {__version__}")
+    parser.add_argument("--version", action=_Version)
     parser.add_argument("-v", "--verbose", action="store_true", help="log what the cell does")
     sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
     sub.required = True

@@ -103,7 +103,26 @@ def test_version() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "kr210_sim", "--version"], capture_output=True, text=True, check=True
     ).stdout
-    assert out.strip() == f"kr210_sim {pyproject['project']['version']}"
+    import mujoco
+
+    from kr210_sim.robot import ik_scalar
+
+    first, platform, ik = out.splitlines()
+    assert first == f"kr210_sim {pyproject['project']['version']}"
+    assert platform.startswith(f"MuJoCo {mujoco.__version__}, numpy ")
+    path = "compiled" if ik_scalar.NATIVE else "pure Python"
+    assert ik.startswith(f"inverse kinematics of one pose: {path}")
+
+
+def test_version_says_when_the_ik_is_pure_python() -> None:
+    env = {**os.environ, "KR210_SIM_PURE_IK": "1"}
+    out = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", "--version"],
+        capture_output=True, text=True, check=True, env=env,
+    ).stdout  # fmt: skip
+    assert out.splitlines()[-1] == (
+        "inverse kinematics of one pose: pure Python (KR210_SIM_PURE_IK is set)"
+    )
 
 
 def test_run_writes_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

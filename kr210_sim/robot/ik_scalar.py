@@ -502,6 +502,15 @@ def _load_native() -> Any:
     return _ik_native
 
 
+def which_path() -> str:
+    """Which single-pose path is in use, and why, in a few words (``--version`` prints it)."""
+    if _NATIVE_MODULE is not None:
+        return "compiled (kr210_sim.robot._ik_native)"
+    if os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0"):
+        return "pure Python (KR210_SIM_PURE_IK is set)"
+    return "pure Python (the compiled extension was not built: no C compiler at install?)"
+
+
 _NATIVE_MODULE = _load_native()
 #: Whether :func:`inverse_one` and :func:`nearest_one` are the compiled functions.
 NATIVE: bool = _NATIVE_MODULE is not None
