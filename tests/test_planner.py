@@ -11,7 +11,7 @@ from kr210_sim.cell.load import compile_cell
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.planner import Planner, pick_order
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sim.runner import RunConfig, Runner
@@ -57,3 +57,27 @@ def test_a_run_facing_away_serves_the_slot_straight_ahead() -> None:
     )
     r = Runner(RunConfig(cycles=1), model=model).run_cycle(1, 8)
     assert r.success and r.env_contact_ticks == 0, r.detail
+
+
+def test_pick_order_steps_down_either_list_alike() -> None:
+    assert list(pick_order(3, 2)) == [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]
+    assert list(pick_order(1, 1)) == [(0, 0)]
+    for n_spots, n_branches in ((1, 8), (9, 1), (9, 8), (4, 6)):
+        pairs = list(pick_order(n_spots, n_branches))
+        assert sorted(pairs) == [(s, b) for s in range(n_spots) for b in range(n_branches)]
+        assert [s + b for s, b in pairs] == sorted(s + b for s, b in pairs)
+
+
+def test_a_wrist_turned_over_at_the_ready_pose_costs_one_failed_carry() -> None:
+    """With the ready pose's wrist turned over, the nearest branch's retreat keeps it so, and
+    the held target tilts past 30 deg on the carry to every drop spot: 9 OMPL searches (one a
+    drop spot, 9.9 s) before the next branch was tried; now one, and the same cycle."""
+    planner, layout = _planner((0, 0, 0, 180, 30, 180))
+    t = layout.target
+    p = layout.slots[4] + np.array([0.0, 0.0, t.length / 2.0])
+    assert planner.router is not None
+    planner.router.searches = 0
+    plan = planner.plan_cycle(planner.ready_q, p, t, layout.drop_spots)
+    assert planner.router.searches == 1
+    assert plan.drop_spot == 0  # the drop spot in turn
+    assert abs(plan.end_of("retreat")[3]) < 0.01  # from the branch with the wrist untwisted

@@ -23,16 +23,17 @@ records, the video shows and view's demo mode stops before)::
     return    PTP   back to the ready pose
 
 The carry goes to the cell's drop spots in turn, those a dropped cylinder reaches the bin's
-floor from (:func:`~kr210_sim.plan.cycle.drop_spot_order`); when the pick cannot be planned from
-the standoff's IK solution nearest the start, the other branches are tried.
+floor from (:func:`~kr210_sim.plan.cycle.drop_spot_order`), and the pick starts from the
+standoff's IK solution nearest the start. When that cycle cannot be planned, the other drop
+spots and the other branches are tried, a step down either list counting alike
+(:func:`pick_order`): the first cycle that can be planned is the one run.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -65,6 +66,24 @@ from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 
 FloatArray = npt.NDArray[np.float64]
+
+
+def pick_order(n_spots: int, n_branches: int) -> Iterator[tuple[int, int]]:
+    """The (drop spot rank, IK branch) pairs a cycle tries, in order: by rank + branch, and
+    among equal sums the drop spot earlier in turn first: (0, 0), (0, 1), (1, 0), (0, 2), ...
+
+    A pick whose carry cannot be planned from its nearest branch's retreat (a wrist turned over,
+    as a ready pose facing away leaves it: the held target tilts too far on every carry) is
+    found on the next branch after one failed carry, not after one for every drop spot; a drop
+    spot no carry reaches costs about one more.
+
+    Args:
+        n_spots: Drop spots in the order to try them (rank 0: the one in turn).
+        n_branches: IK branches of the standoff at most (rank 0: the nearest the start).
+    """
+    for total in range(n_spots + n_branches - 1):
+        for rank in range(max(0, total - n_branches + 1), min(total, n_spots - 1) + 1):
+            yield rank, total - rank
 
 
 @dataclass(frozen=True, slots=True)
@@ -454,9 +473,11 @@ class Planner:
     ) -> CyclePlan:
         """Plan the whole cycle for a target before the arm moves (see the module doc).
 
-        The pick starts from the standoff's IK solution nearest ``q_start``; when the cycle
-        cannot be planned from it, from each other branch in turn (:meth:`branches`), and the
-        first that gives a whole cycle is used.
+        The pick starts from the standoff's IK solution nearest ``q_start`` and carries to the
+        drop spot in turn; when that cycle cannot be planned, the other branches
+        (:meth:`branches`) and drop spots are tried in :func:`pick_order` (a wrist turned over
+        at the nearest branch's retreat costs one failed carry, not one for each drop spot),
+        and the first that gives a whole cycle is used.
 
         Args:
             q_start: Arm joint state at the start [rad].
@@ -478,19 +499,36 @@ class Planner:
         """
         t0, c0 = time.perf_counter(), time.process_time()
         r, length = target.radius, target.length
+        spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
+        order = drop_spot_order(placed, range(len(spots)) if usable is None else usable, dropped)
+        if not order:
+            raise PlanningError("no drop spot to carry the target to")
+        user = self.user_ik is not None  # the user's IK gives one branch: no other is tried
+        n_branches = 1 if user else max(1, self._n_branches(target_position, r, q_start))
+        grasps: dict[int, GraspPlan | UnreachablePoseError | PlanningError] = {}
         first: UnreachablePoseError | PlanningError | None = None
-        for branch in itertools.count():  # the user's IK gives one: no other branch is tried
+        for spot_rank, branch in pick_order(len(order), n_branches):
+            if branch not in grasps:
+                try:
+                    grasps[branch] = self.plan_grasp(q_start, target_position, r, length, branch)
+                except (UnreachablePoseError, PlanningError) as exc:
+                    grasps[branch] = exc
+            g = grasps[branch]
+            if isinstance(g, Exception):
+                first = first or g
+                if user:
+                    raise g
+                continue
             try:
-                g = self.plan_grasp(q_start, target_position, r, length, branch)
-                place = self.plan_place(
-                    g.retreat.q_end, target, drop_spots, placed, usable, dropped
-                )
+                place = self._place_at(g.retreat.q_end, target, spots, order[spot_rank])
                 break
             except (UnreachablePoseError, PlanningError) as exc:
                 first = first or exc
-                user = self.user_ik is not None
-                if user or branch + 1 >= self._n_branches(target_position, r, q_start):
-                    raise first from None
+                if isinstance(exc, IkFailedError):  # the user's IK is judged on the spot in turn
+                    raise
+        else:
+            assert first is not None
+            raise first
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r, g.yaw)
         steps = (
             Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
