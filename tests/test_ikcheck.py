@@ -14,7 +14,8 @@ from kr210_sim.cell.load import load_model, model_for
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cli import main
 from kr210_sim.eval.ikcheck import cell_cases, fixed_cases, random_cases, run_check
-from kr210_sim.plan.planner import Planner, grasp_depth
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.poses import grasp_depth
 from kr210_sim.robot import kinematics
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.user_ik import UserIk, load_ik

@@ -11,7 +11,8 @@ import pytest
 
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import IkFailedError, Kr210SimError, UnreachablePoseError
-from kr210_sim.plan.planner import Planner, gripper_pose
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.poses import gripper_pose
 from kr210_sim.robot import kinematics as kin
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.user_ik import UserIk

@@ -14,7 +14,8 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.cell.mjcf import build_scene, build_spec
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import published_cell
-from kr210_sim.plan.planner import Planner, grasp_depth, radial_yaw
+from kr210_sim.plan.planner import Planner
+from kr210_sim.plan.poses import grasp_depth, radial_yaw
 from kr210_sim.robot import kinematics as kin
 from kr210_sim.robot.description import ARM_JOINTS, ARM_LINKS, FINGER_JOINTS, load_robot
 from kr210_sim.sim.cell import Cell, hold

@@ -11,7 +11,8 @@ from kr210_sim.cell.load import compile_cell
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.planner import Planner, pick_order
+from kr210_sim.plan.cycle import pick_order
+from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sim.runner import RunConfig, Runner

@@ -61,7 +61,7 @@ from kr210_sim.cell.load import model_at
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.planner import gripper_pose
+from kr210_sim.plan.poses import gripper_pose
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.score.result import TargetSample

@@ -9,7 +9,7 @@ one more step in ``plan_cycle`` and nothing else.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -161,3 +161,43 @@ def drop_spot_order(
     if dropped is not None:
         turn.sort(key=lambda s: dropped[s])  # stable: in turn among equals
     return tuple(turn)
+
+
+def pick_order(n_spots: int, n_branches: int) -> Iterator[tuple[int, int]]:
+    """The (drop spot rank, IK branch) pairs a cycle tries, in order: by rank + branch, and
+    among equal sums the drop spot earlier in turn first: (0, 0), (0, 1), (1, 0), (0, 2), ...
+
+    A pick whose carry cannot be planned from its nearest branch's retreat (a wrist turned over,
+    as a ready pose facing away leaves it: the held target tilts too far on every carry) is
+    found on the next branch after one failed carry, not after one for every drop spot; a drop
+    spot no carry reaches costs about one more.
+
+    Args:
+        n_spots: Drop spots in the order to try them (rank 0: the one in turn).
+        n_branches: IK branches of the standoff at most (rank 0: the nearest the start).
+    """
+    for total in range(n_spots + n_branches - 1):
+        for rank in range(max(0, total - n_branches + 1), min(total, n_spots - 1) + 1):
+            yield rank, total - rank
+
+
+@dataclass(frozen=True, slots=True)
+class GraspPlan:
+    """The moves to pick a target, from the ready pose to the lifted standoff.
+
+    Attributes:
+        T_grasp: gripper_link pose at the grasp (4x4, world frame).
+        approach_ptp: ready -> standoff.
+        approach_lin: standoff -> grasp.
+        lift: grasp -> lifted.
+        retreat: lifted -> lifted standoff.
+        yaw: Heading the gripper points in [rad] (radial unless that collides,
+            :meth:`Planner.plan_grasp`).
+    """
+
+    T_grasp: FloatArray
+    approach_ptp: Move
+    approach_lin: Move
+    lift: Move
+    retreat: Move
+    yaw: float = 0.0

@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -43,13 +43,22 @@ from kr210_sim.cell.layout import ready_q_of
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import IkFailedError, NoPathError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
-from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_order
+from kr210_sim.plan.cycle import (
+    CyclePlan,
+    GraspPlan,
+    Grip,
+    Move,
+    Step,
+    drop_spot_order,
+    pick_order,
+)
 from kr210_sim.plan.poses import (
     GRASP_HEADINGS,
     branch_solutions,
     grasp_depth,
-    gripper_pose,
+    pick_poses,
     radial_yaw,
+    release_pose,
     untwisted_nearest,
 )
 from kr210_sim.plan.routing import Router, clear_ready
@@ -66,46 +75,6 @@ from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.robot.user_ik import UserIk
 
 FloatArray = npt.NDArray[np.float64]
-
-
-def pick_order(n_spots: int, n_branches: int) -> Iterator[tuple[int, int]]:
-    """The (drop spot rank, IK branch) pairs a cycle tries, in order: by rank + branch, and
-    among equal sums the drop spot earlier in turn first: (0, 0), (0, 1), (1, 0), (0, 2), ...
-
-    A pick whose carry cannot be planned from its nearest branch's retreat (a wrist turned over,
-    as a ready pose facing away leaves it: the held target tilts too far on every carry) is
-    found on the next branch after one failed carry, not after one for every drop spot; a drop
-    spot no carry reaches costs about one more.
-
-    Args:
-        n_spots: Drop spots in the order to try them (rank 0: the one in turn).
-        n_branches: IK branches of the standoff at most (rank 0: the nearest the start).
-    """
-    for total in range(n_spots + n_branches - 1):
-        for rank in range(max(0, total - n_branches + 1), min(total, n_spots - 1) + 1):
-            yield rank, total - rank
-
-
-@dataclass(frozen=True, slots=True)
-class GraspPlan:
-    """The moves to pick a target, from the ready pose to the lifted standoff.
-
-    Attributes:
-        T_grasp: gripper_link pose at the grasp (4x4, world frame).
-        approach_ptp: ready -> standoff.
-        approach_lin: standoff -> grasp.
-        lift: grasp -> lifted.
-        retreat: lifted -> lifted standoff.
-        yaw: Heading the gripper points in [rad] (radial unless that collides,
-            :meth:`Planner.plan_grasp`).
-    """
-
-    T_grasp: FloatArray
-    approach_ptp: Move
-    approach_lin: Move
-    lift: Move
-    retreat: Move
-    yaw: float = 0.0
 
 
 class Planner:
@@ -285,26 +254,8 @@ class Planner:
     def grasp_poses(
         self, target_position: npt.ArrayLike, target_radius: float, yaw: float | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """gripper_link poses (4x4) of a pick: standoff, grasp, lift and lifted standoff.
-
-        Args:
-            target_position: Observed target centre [m].
-            target_radius: Target radius [m].
-            yaw: Heading the gripper points in [rad] (None: radial, :func:`radial_yaw`).
-        """
-        m = self.motion
-        p = np.asarray(target_position, dtype=np.float64)
-        depth = grasp_depth(self.robot, target_radius)
-        if yaw is None:
-            yaw = radial_yaw(p)
-        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
-        up = np.array([0.0, 0.0, 1.0])
-        grasp = p - depth * u + m.grasp_dz * up
-        T_grasp = gripper_pose(grasp, yaw)
-        T_standoff = gripper_pose(grasp - m.standoff * u, yaw)
-        T_lift = gripper_pose(grasp + m.lift * up, yaw)
-        T_back = gripper_pose(grasp - m.standoff * u + m.lift * up, yaw)
-        return T_standoff, T_grasp, T_lift, T_back
+        """:func:`~kr210_sim.plan.poses.pick_poses` of this planner's robot and motion."""
+        return pick_poses(self.robot, self.motion, target_position, target_radius, yaw)
 
     def plan_grasp(
         self,
@@ -431,14 +382,8 @@ class Planner:
         return self.checker.first_hit(q[3][None], held, self.held_offset(radius)) is None
 
     def drop_pose(self, drop_xy: npt.ArrayLike, target_radius: float) -> FloatArray:
-        """gripper_link pose that holds the target's centre above ``drop_xy`` [m] at release."""
-        xy = np.asarray(drop_xy, dtype=np.float64)
-        yaw = math.atan2(xy[1], xy[0])
-        depth = grasp_depth(self.robot, target_radius)
-        p = np.array(
-            [xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw), self.motion.drop_height]
-        )
-        return gripper_pose(p, yaw)
+        """:func:`~kr210_sim.plan.poses.release_pose` of this planner's robot and motion."""
+        return release_pose(self.robot, self.motion, drop_xy, target_radius)
 
     def plan_carry(
         self,
@@ -495,40 +440,15 @@ class Planner:
             NoPathError: When a move collides with the cell and no detour is clear.
             IkFailedError: When the user's IK gives an unusable answer.
             PlanningError: When a trajectory breaks a limit.
-            (What stops the cycle from the nearest branch, when every branch fails.)
+            (What stops the first cycle tried, when none can be planned.)
         """
         t0, c0 = time.perf_counter(), time.process_time()
-        r, length = target.radius, target.length
+        r = target.radius
         spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
         order = drop_spot_order(placed, range(len(spots)) if usable is None else usable, dropped)
         if not order:
             raise PlanningError("no drop spot to carry the target to")
-        user = self.user_ik is not None  # the user's IK gives one branch: no other is tried
-        n_branches = 1 if user else max(1, self._n_branches(target_position, r, q_start))
-        grasps: dict[int, GraspPlan | UnreachablePoseError | PlanningError] = {}
-        first: UnreachablePoseError | PlanningError | None = None
-        for spot_rank, branch in pick_order(len(order), n_branches):
-            if branch not in grasps:
-                try:
-                    grasps[branch] = self.plan_grasp(q_start, target_position, r, length, branch)
-                except (UnreachablePoseError, PlanningError) as exc:
-                    grasps[branch] = exc
-            g = grasps[branch]
-            if isinstance(g, Exception):
-                first = first or g
-                if user:
-                    raise g
-                continue
-            try:
-                place = self._place_at(g.retreat.q_end, target, spots, order[spot_rank])
-                break
-            except (UnreachablePoseError, PlanningError) as exc:
-                first = first or exc
-                if isinstance(exc, IkFailedError):  # the user's IK is judged on the spot in turn
-                    raise
-        else:
-            assert first is not None
-            raise first
+        g, place = self._first_cycle(q_start, target_position, target, spots, order)
         T_standoff, T_grasp, T_lift, T_back = self.grasp_poses(target_position, r, g.yaw)
         steps = (
             Step("approach", g.approach_ptp, pose="standoff", T=T_standoff),
@@ -547,6 +467,50 @@ class Planner:
             time.process_time() - c0,
             math.remainder(g.yaw - radial_yaw(target_position), 2 * math.pi),
         )
+
+    def _first_cycle(
+        self,
+        q_start: FloatArray,
+        target_position: npt.ArrayLike,
+        target: TargetSpec,
+        spots: FloatArray,
+        order: tuple[int, ...],
+    ) -> tuple[GraspPlan, CyclePlan]:
+        """The pick and the place of the first (drop spot, branch) pair in :func:`pick_order`
+        whose cycle can be planned: drop spots ranked as ``order``, branches as
+        :meth:`branches`.
+
+        Raises:
+            UnreachablePoseError, NoPathError, IkFailedError, PlanningError: The first pair's,
+                when no pair can be planned (an unusable answer of the user's IK at once).
+        """
+        user = self.user_ik is not None  # the user's IK gives one branch: no other is tried
+        r = target.radius
+        n_branches = 1 if user else max(1, self._n_branches(target_position, r, q_start))
+        grasps: dict[int, GraspPlan | UnreachablePoseError | PlanningError] = {}
+        first: UnreachablePoseError | PlanningError | None = None
+        for spot_rank, branch in pick_order(len(order), n_branches):
+            if branch not in grasps:
+                try:
+                    grasps[branch] = self.plan_grasp(
+                        q_start, target_position, r, target.length, branch
+                    )
+                except (UnreachablePoseError, PlanningError) as exc:
+                    grasps[branch] = exc
+            g = grasps[branch]
+            if isinstance(g, Exception):
+                first = first or g
+                if user:
+                    raise g
+                continue
+            try:
+                return g, self._place_at(g.retreat.q_end, target, spots, order[spot_rank])
+            except (UnreachablePoseError, PlanningError) as exc:
+                first = first or exc
+                if isinstance(exc, IkFailedError):  # the user's IK is judged on the spot in turn
+                    raise
+        assert first is not None
+        raise first
 
     def _n_branches(self, target_position: npt.ArrayLike, radius: float, q_ref: FloatArray) -> int:
         """IK branches of the radial standoff (0 when it is out of reach)."""

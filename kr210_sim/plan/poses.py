@@ -15,6 +15,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import PlanningError
 from kr210_sim.robot.description import RobotDescription
 from kr210_sim.robot.kinematics import Kinematics
@@ -71,6 +72,49 @@ GRASP_HEADINGS = tuple(s * d for d in range(5, 50, 5) for s in (1, -1))
 
 #: Largest |q4| and |q6| of an untwisted wrist [rad].
 UNTWISTED = math.pi / 2
+
+
+def pick_poses(
+    robot: RobotDescription,
+    motion: MotionConfig,
+    target_position: npt.ArrayLike,
+    target_radius: float,
+    yaw: float | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """gripper_link poses (4x4) of a pick: standoff, grasp, lift and lifted standoff.
+
+    Args:
+        robot: The arm (its fingers set how deep the grasp is, :func:`grasp_depth`).
+        motion: The standoff, lift and grasp height offsets.
+        target_position: Observed target centre [m].
+        target_radius: Target radius [m].
+        yaw: Heading the gripper points in [rad] (None: radial, :func:`radial_yaw`).
+    """
+    m = motion
+    p = np.asarray(target_position, dtype=np.float64)
+    depth = grasp_depth(robot, target_radius)
+    if yaw is None:
+        yaw = radial_yaw(p)
+    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # approach direction
+    up = np.array([0.0, 0.0, 1.0])
+    grasp = p - depth * u + m.grasp_dz * up
+    T_grasp = gripper_pose(grasp, yaw)
+    T_standoff = gripper_pose(grasp - m.standoff * u, yaw)
+    T_lift = gripper_pose(grasp + m.lift * up, yaw)
+    T_back = gripper_pose(grasp - m.standoff * u + m.lift * up, yaw)
+    return T_standoff, T_grasp, T_lift, T_back
+
+
+def release_pose(
+    robot: RobotDescription, motion: MotionConfig, drop_xy: npt.ArrayLike, target_radius: float
+) -> FloatArray:
+    """gripper_link pose that holds the target's centre above ``drop_xy`` [m] at release (at
+    ``motion.drop_height``, pointing radially)."""
+    xy = np.asarray(drop_xy, dtype=np.float64)
+    yaw = math.atan2(xy[1], xy[0])
+    depth = grasp_depth(robot, target_radius)
+    p = np.array([xy[0] - depth * math.cos(yaw), xy[1] - depth * math.sin(yaw), motion.drop_height])
+    return gripper_pose(p, yaw)
 
 
 def _untwisted(kin: Kinematics, T: FloatArray, q_ref: FloatArray) -> list[tuple[float, FloatArray]]:
