@@ -55,7 +55,8 @@ class _Parser(argparse.ArgumentParser):
 
 class _Version(argparse.Action):
     """``--version``: the package's version, then what it runs on (worked out only when asked:
-    the IK's path needs numpy, which a plain start-up does not import yet)."""
+    which IK path one pose takes is known once the kinematics are imported, which the parser's
+    start-up does not do)."""
 
     def __init__(self, option_strings: list[str], dest: str, **kwargs: Any) -> None:
         super().__init__(option_strings, dest, nargs=0, help="show the version and exit")

@@ -26,7 +26,7 @@ The carry goes to the cell's drop spots in turn, those a dropped cylinder reache
 floor from (:func:`~kr210_sim.plan.cycle.drop_spot_order`), and the pick starts from the
 standoff's IK solution nearest the start. When that cycle cannot be planned, the other drop
 spots and the other branches are tried, a step down either list counting alike
-(:func:`pick_order`): the first cycle that can be planned is the one run.
+(:func:`~kr210_sim.plan.cycle.pick_order`): the first cycle that can be planned is run.
 """
 
 from __future__ import annotations
@@ -419,10 +419,8 @@ class Planner:
         """Plan the whole cycle for a target before the arm moves (see the module doc).
 
         The pick starts from the standoff's IK solution nearest ``q_start`` and carries to the
-        drop spot in turn; when that cycle cannot be planned, the other branches
-        (:meth:`branches`) and drop spots are tried in :func:`pick_order` (a wrist turned over
-        at the nearest branch's retreat costs one failed carry, not one for each drop spot),
-        and the first that gives a whole cycle is used.
+        drop spot in turn; when that cycle cannot be planned, the other branches and drop spots
+        are tried (:func:`~kr210_sim.plan.cycle.pick_order`), and the first whole cycle is used.
 
         Args:
             q_start: Arm joint state at the start [rad].
