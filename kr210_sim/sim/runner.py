@@ -212,8 +212,8 @@ class Runner:
     ) -> CyclePlan:
         """The whole cycle for the target in play, observed at ``position`` [m]: from
         ``q_start`` [rad] (default: where the arm is commanded now) to the next of
-        :attr:`drop_spots` in turn whose place can be planned
-        (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
+        :attr:`drop_spots` in turn with room (:meth:`drop_spots_with_room`) whose place can
+        be planned (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
@@ -227,6 +227,7 @@ class Runner:
             placed=len(self.targets.in_play) - 1,
             usable=self.drop_spots_with_room(spec.length),
             dropped=self.dropped,
+            turn=self.drop_spots,
         )
 
     def drop_spots_with_room(self, length: float) -> tuple[int, ...]:
