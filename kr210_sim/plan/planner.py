@@ -451,7 +451,6 @@ class Planner:
         placed: int = 0,
         usable: Sequence[int] | None = None,
         dropped: Sequence[int] | None = None,
-        turn: Sequence[int] | None = None,
     ) -> CyclePlan:
         """Plan the whole cycle for a target before the arm moves (see the module doc).
 
@@ -469,8 +468,6 @@ class Planner:
             usable: The drop spots to carry to (0-based; default: all); see :meth:`plan_place`.
             dropped: Cylinders carried to each drop spot since the bin was emptied (see
                 :func:`~kr210_sim.plan.cycle.drop_spot_order`), or None.
-            turn: The spots the turn goes over when ``usable`` are some of them (see
-                :func:`~kr210_sim.plan.cycle.drop_spot_order`; default: ``usable``).
 
         Raises:
             UnreachablePoseError: When a pose has no IK solution inside the limits.
@@ -486,7 +483,7 @@ class Planner:
             try:
                 g = self.plan_grasp(q_start, target_position, r, length, branch)
                 place = self.plan_place(
-                    g.retreat.q_end, target, drop_spots, placed, usable, dropped, turn
+                    g.retreat.q_end, target, drop_spots, placed, usable, dropped
                 )
                 break
             except (UnreachablePoseError, PlanningError) as exc:
@@ -528,7 +525,6 @@ class Planner:
         placed: int = 0,
         usable: Sequence[int] | None = None,
         dropped: Sequence[int] | None = None,
-        turn: Sequence[int] | None = None,
     ) -> CyclePlan:
         """Plan the place part of a cycle, the target held at ``q_start`` [rad]: carry to a
         drop spot, release, return to the ready pose (:meth:`plan_cycle` ends with these steps;
@@ -548,9 +544,6 @@ class Planner:
                 (:func:`~kr210_sim.plan.landing.usable_drop_spots`).
             dropped: Cylinders carried to each drop spot since the bin was emptied: the least
                 used are tried first (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
-            turn: The spots the turn goes over when ``usable`` are some of them (a run's spots
-                with room among its usable ones; see
-                :func:`~kr210_sim.plan.cycle.drop_spot_order`; default: ``usable``).
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
@@ -558,7 +551,7 @@ class Planner:
         """
         spots = np.asarray(drop_spots, dtype=np.float64).reshape(-1, 2)
         all_spots = range(len(spots))
-        order = drop_spot_order(placed, all_spots if usable is None else usable, dropped, turn)
+        order = drop_spot_order(placed, all_spots if usable is None else usable, dropped)
         if not order:
             raise PlanningError("no drop spot to carry the target to")
         first: UnreachablePoseError | PlanningError | None = None

@@ -21,7 +21,7 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step
+from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_order
 from kr210_sim.plan.landing import landing_blockers, spots_with_room, usable_drop_spots
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
@@ -219,15 +219,16 @@ class Runner:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
                 :meth:`~kr210_sim.plan.planner.Planner.plan_cycle`.
         """
+        placed = len(self.targets.in_play) - 1
+        room = self.drop_spots_with_room(spec.length)
+        # the turn goes over all of drop_spots: a spot with no room does not shift the others'
+        order = drop_spot_order(placed, room, self.dropped, self.drop_spots)
         return self.planner.plan_cycle(
             self.q_cmd if q_start is None else q_start,
             position,
             spec,
             self.layout.drop_spots,
-            placed=len(self.targets.in_play) - 1,
-            usable=self.drop_spots_with_room(spec.length),
-            dropped=self.dropped,
-            turn=self.drop_spots,
+            usable=order,  # tried in this order (placed 0, no counts: as given)
         )
 
     def drop_spots_with_room(self, length: float) -> tuple[int, ...]:
