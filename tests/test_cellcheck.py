@@ -211,6 +211,24 @@ def test_check_agrees_with_run_on_cells_drawn_at_random(
     assert not result.disagreements, [s.describe() for s in result.disagreements]
 
 
+@pytest.mark.slow
+def test_a_full_bin_is_emptied_before_a_cylinder_would_land_on_a_standing_one() -> None:
+    """Edge cell 9013 (``cell_sweep.py --kind edge --seed 9000``): check serves every slot, and
+    run's tenth cycle (slot 1 again, a cylinder standing at each of the nine drop spots, the
+    first knocked 4 deg off the vertical by the eighth, tumbling) dropped its cylinder on the
+    first. It toppled across the top of the one at drop 6, where MuJoCo's contact threw it out
+    of the bin (missed_bin at [-1.427, 1.398, 0.05]; ``plan.landing``). Now no drop spot has
+    room for it: the bin is emptied first, and it lands on the floor at drop 1."""
+    model = compile_cell(parse_cell(random_cell(9013, "edge").text, "edge_9013.toml"))
+    runner = Runner(RunConfig(cycles=10), model=model)
+    results = [runner.run_cycle(i, (i - 1) % 9 + 1) for i in range(1, 11)]
+    assert [r.success for r in results] == [True] * 10, [r.detail for r in results]
+    (event,) = runner.events
+    assert (event.before_cycle, event.targets) == (10, tuple(range(9)))
+    assert runner.plan is not None and runner.plan.drop_spot == 0
+    assert results[-1].target_final == pytest.approx((-1.770, 2.457, 0.175), abs=0.005)
+
+
 def test_check_serves_the_slots_ahead_of_a_ready_pose_facing_away(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -95,6 +95,19 @@ def test_the_drop_spot_order_skips_what_is_not_usable_and_spreads_the_cylinders(
     assert drop_spot_order(5, tuple(range(9)), [1] * 9) == drop_spot_order(5, tuple(range(9)))
 
 
+def test_a_spot_with_no_room_does_not_shift_the_turn_of_the_others() -> None:
+    """A run's turn goes over its usable spots and skips those with no room for another
+    cylinder (a cylinder standing there): with drop 1 taken, the second cylinder goes to drop
+    2, as it did while drop 1 still had room; over the spots with room alone it went to 3."""
+    usable, room = tuple(range(9)), tuple(range(1, 9))
+    dropped = [1, 0, 0, 0, 0, 0, 0, 0, 0]
+    assert drop_spot_order(1, room, dropped, usable) == (1, 2, 3, 4, 5, 6, 7, 8)
+    assert drop_spot_order(1, room, dropped) == (2, 3, 4, 5, 6, 7, 8, 1)
+    assert drop_spot_order(4, (6, 7), [0] * 9, usable) == (6, 7)
+    assert drop_spot_order(7, (6, 7), [0] * 9, usable) == (7, 6)
+    assert drop_spot_order(7, (6, 7), [0] * 9, (6, 7)) == drop_spot_order(7, (6, 7), [0] * 9)
+
+
 def test_a_carry_goes_to_the_next_spot_whose_place_can_be_planned(
     cell: tuple[Planner, CellLayout],
 ) -> None:

@@ -15,6 +15,9 @@ from kr210_sim.plan.landing import (
     drop_heights,
     landing_blocker,
     landing_blockers,
+    lying_top,
+    pile_heights,
+    spots_with_room,
     tumble_band,
     usable_drop_spots,
 )
@@ -131,3 +134,65 @@ def test_drop_heights_see_a_cylinder_standing_behind_the_spot() -> None:
         data.qpos[a : a + 7] = (x, y + dy, 0.05 + 0.125, 1.0, 0.0, 0.0, 0.0)
         mujoco.mj_forward(model, data)
         assert drop_heights(model, data, layout, h)[0] == pytest.approx(height, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("upright", "room"), [(True, (1, 2, 3, 4, 5, 6, 7, 8)), (False, tuple(range(9)))]
+)
+def test_a_cylinder_standing_at_a_spot_leaves_it_no_room_one_lying_there_does(
+    upright: bool, room: tuple[int, ...]
+) -> None:
+    """A cylinder standing at drop spot 1 (its top 0.30 m) leaves that spot no room: one dropped
+    on it may topple across its neighbours' tops (edge cell 9013, see ``plan.landing``). One
+    lying there (its top 0.15 m, below the published cell's 0.155 m, :func:`lying_top`) does
+    not. Drop spot 4, 0.22 m beyond spot 1, sees the standing one in the band behind it (not
+    under its footprint), but a cylinder tumbling onto it keeps its centre (0.30 + 0.125 m)
+    below the 1 m rim: room."""
+    model = model_for()
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    h = CellHandles.from_model(model)
+    layout = CellLayout.from_model(model)
+    a = int(h.target_qpos[3])
+    x, y = layout.drop_spots[0]
+    if upright:
+        data.qpos[a : a + 7] = (x, y, 0.05 + 0.125, 1.0, 0.0, 0.0, 0.0)
+    else:  # on its side, along y
+        data.qpos[a : a + 7] = (x, y, 0.05 + 0.05, np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0)
+    mujoco.mj_forward(model, data)
+    assert lying_top(model, layout, h) == pytest.approx(0.155)
+    under, behind = pile_heights(model, data, layout, h)
+    top = 0.30 if upright else 0.15
+    assert under[0] == pytest.approx(top, abs=1e-3) and under[3] == pytest.approx(0.05)
+    assert behind[0] == pytest.approx(top, abs=1e-3) and behind[3] == pytest.approx(top, abs=1e-3)
+    assert spots_with_room(model, data, layout, h, 0.25, range(9)) == room
+
+
+def test_mujoco_gets_a_cylinder_lying_across_a_standing_ones_top_wrong() -> None:
+    """Why no cylinder is dropped on a standing one (``plan.landing``): edge cell 9013's tenth
+    cylinder, toppled off the first, lying 0.65 deg off level with its lower end across the top
+    rim of the one standing at drop spot 6 (as placed there, relative to it: the standing one
+    first in geom order, as the cell has them). MuJoCo 4.0.1's multi-point collision reports
+    two contacts 94.8 mm deep along the lying one's axis; they overlap 2.7 mm
+    (``mj_geomDistance``, and the contact without multi-point collision). In the cell that
+    contact threw the cylinder up at 3.4 m/s and out of the bin. Should an upgrade of MuJoCo
+    make this fail, the contact is fixed: see whether a standing cylinder can take another."""
+    xml = """<mujoco><worldbody>
+      <body><freejoint/><geom type="cylinder" size="0.05 0.125"/></body>
+      <body pos="0.0362 -0.0713 0.1737" quat="-0.4352 0.0765 0.7070 0.5522">
+        <freejoint/><geom type="cylinder" size="0.05 0.125"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lying = data.geom_xmat[1].reshape(3, 3)[:, 2]
+    assert np.degrees(np.arcsin(abs(lying[2]))) == pytest.approx(0.65, abs=0.01)
+    depths = [1e3 * data.contact[i].dist for i in range(data.ncon)]
+    assert depths == pytest.approx([-94.8, -94.8], abs=0.1)
+    assert abs(data.contact[0].frame[:3] @ lying) == pytest.approx(1.0, abs=1e-3)  # its axis
+    assert 1e3 * mujoco.mj_geomDistance(model, data, 0, 1, 0.1, None) == pytest.approx(
+        -2.7, abs=0.1
+    )
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MULTICCD
+    mujoco.mj_forward(model, data)
+    assert [1e3 * data.contact[i].dist for i in range(data.ncon)] == pytest.approx([-2.7], abs=0.1)

@@ -61,18 +61,27 @@ def test_one_cycle_per_row_succeeds_with_small_creep_and_no_contact() -> None:
 
 
 @pytest.mark.slow
-def test_the_main_job_leaves_ten_cylinders_in_the_bin() -> None:
+def test_the_main_job_succeeds_ten_times_and_empties_the_full_bin_once() -> None:
     runner = Runner(RunConfig())  # what `run --cycles 10` runs
     results = [runner.run_cycle(i, runner.slot_for_cycle()) for i in range(1, 11)]
     assert [r.success for r in results] == [True] * 10, [r.detail for r in results]
     assert {(r.slot - 1) // 3 for r in results} == {0, 1, 2}  # every row visited
     assert sum(r.env_contact_ticks for r in results) == 0
     assert max(r.cycle_time for r in results) < 6.0
-    # The last drop may still jostle the pile: give it 2 s, then all ten rest inside the bin.
+    # Nine cylinders stand at the nine drop spots after nine cycles: no room for the tenth
+    # (plan.landing.spots_with_room; it was dropped on the first before).
+    (event,) = runner.events
+    assert (event.kind.value, event.before_cycle, event.targets) == (
+        "bin_emptied",
+        10,
+        tuple(range(9)),
+    )
+    # The last drop may still jostle what is in the bin: give it 2 s, then all ten rest, the
+    # tenth inside the bin.
     runner.idle(2.0)
     cell = runner.cell
     resting = [cell.target_pose(k)[0] for k in range(len(cell.handles.target_bodies))]
-    assert sum(in_bin(p, runner.layout.bin) for p in resting) == 10
+    assert [k for k, p in enumerate(resting) if in_bin(p, runner.layout.bin)] == [9]
     assert max(cell.target_speed(k) for k in range(10)) < 0.01
 
 
@@ -111,19 +120,25 @@ def test_a_cylinder_left_on_the_shelf_is_cleared_before_the_next_cycle_only() ->
 
 
 def test_a_tower_at_a_drop_spot_leaves_it_no_room_and_the_bin_is_emptied_for_it() -> None:
-    """Cylinders standing on each other at drop spot 1: with three, a fourth dropped there
-    stands with its centre below the rim (room); with four, above it (no room), and so would
-    one tumbling back onto it from drop 4 (``plan.landing.tumble_band``). When the only spots
-    the carry reaches have no room, the bin is emptied (an event, the cylinder to pick left in
-    its slot) and the cycle planned again; it dropped onto the tower before."""
-    runner = Runner(RunConfig(cycles=1), model=load_model())
+    """Cylinders standing on each other at drop spot 1 (from two on: one alone in play is the
+    one to pick): it has no room (``plan.landing.spots_with_room``), nor drop 4 with four (one
+    tumbling back onto the tower from there, ``plan.landing.tumble_band``, would stand its
+    centre above the rim). When the only spots the carry reaches have no room (drop 2, free,
+    moved out of reach), the bin is emptied (an event, the cylinder to pick left in its slot)
+    and the cycle planned again; it dropped onto the tower before."""
+    model = load_model()
+    model.site_pos[_site(model, "drop_2")] = (4.5, 2.5, 1.0)
+    runner = Runner(RunConfig(cycles=1), model=model)
     x, y = runner.layout.drop_spots[0]
     spec = runner.layout.target
     for level in range(4):
         runner.targets.spawn((x, y, 0.05 + spec.length * (level + 0.5)), 0.0, spec)
         room = runner.drop_spots_with_room(spec.length)
-        assert room == tuple(s for s in range(9) if level < 3 or s not in (0, 3))
-    runner.drop_spots = (0,)  # as if the carry reached drop 1 alone
+        if level == 0:  # the one cylinder in play is taken to be the one to pick
+            assert room == tuple(range(9))
+        else:
+            assert room == tuple(s for s in range(1, 9) if level < 3 or s != 3)
+    runner.drop_spots = (0, 1)  # as if the carry reached drops 1 and 2 alone
     r = runner.run_cycle(1, 5)
     assert r.success, r.detail
     (event,) = runner.events
@@ -132,7 +147,48 @@ def test_a_tower_at_a_drop_spot_leaves_it_no_room_and_the_bin_is_emptied_for_it(
         "the bin was emptied (4 cylinders): no drop spot with room for another cylinder could "
         "be reached"
     )
+    assert runner.plan is not None and runner.plan.drop_spot == 0
     assert runner.targets.in_play == [4] and r.cycle_time < 6.0  # the event is not the arm's
+
+
+def test_a_bin_with_a_cylinder_standing_at_every_drop_spot_is_emptied_first() -> None:
+    """Nine cylinders standing at the nine drop spots (the published bin after nine cycles): no
+    spot has room, since one dropped on a standing cylinder may topple across its neighbours'
+    tops and be thrown out of the bin (edge cell 9013's tenth cycle, ``plan.landing``); one
+    lying on its side at drop 5 leaves it room. Then the bin is emptied before the cycle plans,
+    and the cylinder goes to drop 1. It was dropped on the first of the nine before."""
+    runner = Runner(RunConfig(cycles=1), model=load_model())
+    spec = runner.layout.target
+    for x, y in runner.layout.drop_spots:
+        runner.targets.spawn((x, y, 0.05 + spec.length / 2.0), 0.0, spec)
+    assert runner.drop_spots_with_room(spec.length) == ()
+    x, y = runner.layout.drop_spots[4]
+    runner.cell.data.qpos[runner.cell.handles.target_qpos[4] + np.arange(7)] = (
+        x,
+        y,
+        0.05 + spec.radius,
+        np.sqrt(0.5),
+        np.sqrt(0.5),
+        0.0,
+        0.0,
+    )
+    mujoco.mj_forward(runner.model, runner.cell.data)
+    assert runner.drop_spots_with_room(spec.length) == (4,)
+    runner.targets._place(4, (x, y, 0.05 + spec.length / 2.0))  # standing again
+    mujoco.mj_forward(runner.model, runner.cell.data)
+    r = runner.run_cycle(1, 5)
+    assert r.success, r.detail
+    (event,) = runner.events
+    assert (event.kind.value, event.before_cycle, event.targets) == (
+        "bin_emptied",
+        1,
+        tuple(range(9)),
+    )
+    assert event.detail == (
+        "the bin was emptied (9 cylinders): no drop spot has room for another cylinder"
+    )
+    assert runner.plan is not None and runner.plan.drop_spot == 0
+    assert runner.targets.in_play == [9] and in_bin(r.target_final, runner.layout.bin)
 
 
 def test_slippery_heavy_target_is_dropped_in_transit() -> None:
@@ -238,12 +294,13 @@ def test_a_target_knocked_over_in_its_slot_is_reported() -> None:
 
 @pytest.mark.slow
 def test_cylinders_dropped_on_a_full_bin(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Nine cylinders in the bin, the tenth dropped on the pile: a success as soon as it cannot
-    leave (the kinetic energy of every cylinder in play, all given to it, could not lift it to
-    the rim), not after waiting for the pile to stop moving. Then the eleventh cycle (the bin
-    emptied, a fresh pile of one) with a cylinder of the pile kicked up at 6 m/s as the wait
-    begins and a wait too short for it to come down: inside the bin but not settled, and the
-    detail says what was measured."""
+    """Nine cylinders in the bin, the tenth dropped on the pile (on the first of the nine, as
+    runs did before a standing cylinder left its spot no room: the test lifts that rule for it):
+    a success as soon as it cannot leave (the kinetic energy of every cylinder in play, all
+    given to it, could not lift it to the rim), not after waiting for the pile to stop moving.
+    Then the eleventh cycle (the bin emptied, a fresh pile of one) with a cylinder of the pile
+    kicked up at 6 m/s as the wait begins and a wait too short for it to come down: inside the
+    bin but not settled, and the detail says what was measured."""
     from kr210_sim.score.scoring import GRAVITY, REST_WINDOW
     from kr210_sim.sim import runner as runner_module
 
@@ -251,7 +308,10 @@ def test_cylinders_dropped_on_a_full_bin(monkeypatch: pytest.MonkeyPatch) -> Non
     for i in range(1, 10):
         assert runner.run_cycle(i, runner.slot_for_cycle()).success
     assert runner.targets.in_bin_count() == 9
+    assert runner.drop_spots_with_room(runner.layout.target.length) == ()
+    monkeypatch.setattr(runner, "drop_spots_with_room", lambda length: runner.drop_spots)
     r = runner.run_cycle(10, runner.slot_for_cycle())
+    assert runner.plan is not None and runner.plan.drop_spot == 0 and not runner.events
     assert r.success and r.reason is None and r.detail == ""
     assert runner.targets.in_bin_count() == 10
     assert r.phase_times["settle"] < REST_WINDOW  # decided before any pile could have rested

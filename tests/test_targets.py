@@ -17,7 +17,10 @@ from kr210_sim.sim.targets import TargetPool
 
 
 @pytest.mark.slow
-def test_a_run_past_ten_cycles_empties_the_bin_as_an_event() -> None:
+def test_a_run_past_nine_cycles_empties_the_bin_as_an_event() -> None:
+    """Slot 5 twelve times: after nine cycles a cylinder stands at each of the nine drop spots
+    and none has room for the tenth (``plan.landing.spots_with_room``), so the bin is emptied
+    before cycle 10, and no cylinder leaves the bin unseen."""
     runner = Runner(RunConfig(cycles=12, seed=2, slot=5))
     cell, n = runner.cell, len(runner.cell.handles.target_bodies)
     bin_spec = runner.layout.bin
@@ -30,12 +33,32 @@ def test_a_run_past_ten_cycles_empties_the_bin_as_an_event() -> None:
         assert before - moved <= now, f"cycle {i}: cylinders left the bin unseen"
         before = now
     (event,) = runner.events
-    assert event.kind == "bin_emptied" and event.before_cycle == 11
-    assert sorted(event.targets) == list(range(10))
-    assert event.detail == "the bin was emptied (10 cylinders)"
-    assert len(before) == 2  # cycles 11 and 12 in a freshly emptied bin
+    assert event.kind == "bin_emptied" and event.before_cycle == 10
+    assert sorted(event.targets) == list(range(9))
+    assert event.detail == (
+        "the bin was emptied (9 cylinders): no drop spot has room for another cylinder"
+    )
+    assert len(before) == 3  # cycles 10 to 12 in a freshly emptied bin
     report = build_report(runner.config, runner.results, None, events=runner.events)
     assert report["events"][0]["kind"] == "bin_emptied"
+
+
+def test_a_cycle_with_no_spare_cylinder_left_empties_the_bin_first() -> None:
+    """All ten cylinders in play (standing on the floor beside the bin): the next cycle's
+    spawn empties the bin and picks them up first, an event before that cycle."""
+    runner = Runner(RunConfig(cycles=1))
+    spec = runner.layout.target
+    for k in range(10):
+        runner.targets.spawn((1.0, 2.0 + 0.2 * k, 0.125), 0.0, spec)
+    assert runner.targets.spare == []
+    r = runner.run_cycle(1, 5)
+    assert r.success, r.detail
+    (event,) = runner.events
+    assert (event.kind, event.before_cycle, event.targets) == ("bin_emptied", 1, tuple(range(10)))
+    assert event.detail == (
+        "the bin was emptied (0 cylinders) and 10 cylinders outside it were picked up"
+    )
+    assert runner.targets.in_play == [0]
 
 
 def test_spawning_takes_spares_in_order_and_restocking_returns_them() -> None:

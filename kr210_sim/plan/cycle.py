@@ -140,7 +140,10 @@ def drop_spot_index(placed: int, n_spots: int) -> int:
 
 
 def drop_spot_order(
-    placed: int, spots: Sequence[int], dropped: Sequence[int] | None = None
+    placed: int,
+    spots: Sequence[int],
+    dropped: Sequence[int] | None = None,
+    turn: Sequence[int] | None = None,
 ) -> tuple[int, ...]:
     """The drop spots the next carry tries, in order: the one in turn among ``spots``
     (:func:`drop_spot_index`), then the others in turn after it; with ``dropped``, the spots
@@ -154,13 +157,20 @@ def drop_spot_order(
             reaches the bin's floor from (:func:`~kr210_sim.plan.landing.usable_drop_spots`).
         dropped: Cylinders carried to each of the cell's drop spots since the bin was emptied
             (indexed by spot), or None.
+        turn: The spots the turn goes over, when ``spots`` are some of them (a run's usable
+            spots, ``spots`` those with room for another cylinder): the one in turn among
+            ``turn``, or the first of ``spots`` after it, and so on, so that a spot with no
+            room does not shift the turn of the others. Default: ``spots``.
     """
-    n = len(spots)
+    over = tuple(spots) if turn is None else tuple(turn)
+    n = len(over)
     first = drop_spot_index(placed, n) if n else 0
-    turn = [spots[(first + i) % n] for i in range(n)]
+    use = set(spots)
+    order = [s for s in (over[(first + i) % n] for i in range(n)) if s in use]
+    order += [s for s in spots if s not in over]
     if dropped is not None:
-        turn.sort(key=lambda s: dropped[s])  # stable: in turn among equals
-    return tuple(turn)
+        order.sort(key=lambda s: dropped[s])  # stable: in turn among equals
+    return tuple(order)
 
 
 def pick_order(n_spots: int, n_branches: int) -> Iterator[tuple[int, int]]:

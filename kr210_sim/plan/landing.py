@@ -15,11 +15,25 @@ there threw a cylinder a metre out of a narrow bin. So the rays also cover that 
 hit above the rim blocks the spot too.
 The runner sends cylinders only to usable spots (:class:`~kr210_sim.sim.runner.Runner`),
 ``check`` refuses the rest, and ``run`` refuses a cell with none.
+
+As the bin fills, a spot has room for another cylinder only where it comes down on the floor or
+on cylinders lying on their sides (:func:`spots_with_room`), not on one standing upright. A
+cylinder dropped on a standing one lands on its top and balances there only while that stands
+plumb: in edge cell 9013 of ``tests/random_cells.py`` the tenth landed on the first, which the
+eighth, tumbling, had knocked 4 deg off the vertical and 11 mm off the spot; it toppled and
+came to lie almost level (0.65 deg) across the top of another standing one. That is a contact
+MuJoCo 4.0.1's multi-point cylinder collision gets wrong: it reported the two overlapping
+94.8 mm along the lying one's axis where they overlapped 2.7 mm (``mj_geomDistance``; the same
+pair without multi-point collision, or in the other geom order, gives the 2.7 mm), and the
+stiff contact threw the cylinder up at 3.4 m/s and out over the wall (missed_bin in a cycle
+``check`` served). A pile no higher than a cylinder on its side keeps a toppling one well below
+its neighbours' tops.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -43,6 +57,9 @@ RINGS = ((8, 0.5, 0), (16, 1.0, 0), (24, 1.0, 1))
 TUMBLE_DRIFT = 0.05
 #: Spacing of the rays over the tumble's band [m].
 TUMBLE_STEP = 0.02
+#: How far the pile under a drop spot may stand above a cylinder lying on its side on the bin's
+#: floor and still count as one [m] (resting contacts settle within a millimetre or two).
+PILE_TOLERANCE = 0.005
 #: The geom groups rays are cast against: all but the drawn meshes' (group 2, which collide
 #: with nothing and cost the rays four fifths of their time); they stop at whatever a falling
 #: cylinder would collide with.
@@ -142,23 +159,60 @@ def _tumbles(
     return out
 
 
-def drop_heights(
+def pile_heights(
     model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, handles: CellHandles
-) -> FloatArray:
-    """Where a cylinder dropped at each drop spot now lands [m]: the height of the highest
-    thing under its footprint, the cylinders lying (or standing) in the bin included, as
-    ``data`` holds them, and of the cylinders in the band behind it that a tumbling one may
-    come down on (:func:`tumble_band`; one standing 0.13 m back of a spot had another land
-    upright on it, its centre above a low bin's rim). Shape (number of drop spots,)."""
+) -> tuple[FloatArray, FloatArray]:
+    """Where a cylinder dropped at each drop spot now comes down [m], with the cylinders lying
+    (or standing) in the bin as ``data`` holds them: the height of the highest thing under its
+    footprint (the floor where nothing is), and that of the highest cylinder in the band
+    behind the spot that a tumbling one may come down on (:func:`tumble_band`; one standing
+    0.13 m back of a spot had another land upright on it, its centre above a low bin's rim;
+    the floor where none is). Each of shape (number of drop spots,)."""
     found = _landings(model, data, layout, _stops(model, handles, targets=True))
     targets = frozenset(int(g) for g in handles.target_geoms)
     piled = _tumbles(model, data, layout, targets)
     floor = layout.bin.floor_top
-    return np.array(
-        [
-            max(z if g >= 0 else floor, zt if gt >= 0 else floor)
-            for (z, g), (zt, gt) in zip(found, piled, strict=True)
-        ]
+    under = np.array([z if g >= 0 else floor for z, g in found])
+    behind = np.array([z if g >= 0 else floor for z, g in piled])
+    return under, behind
+
+
+def drop_heights(
+    model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, handles: CellHandles
+) -> FloatArray:
+    """Where a cylinder dropped at each drop spot now lands [m]: the higher of the two
+    :func:`pile_heights`, under its footprint and in the band behind it. Shape (number of drop
+    spots,)."""
+    under, behind = pile_heights(model, data, layout, handles)
+    return np.maximum(under, behind)
+
+
+def lying_top(model: mujoco.MjModel, layout: CellLayout, handles: CellHandles) -> float:
+    """The highest pile [m] a drop spot may hold and still have room (:func:`spots_with_room`):
+    the top of the widest of the cell's cylinders lying on its side on the bin's floor, plus
+    :data:`PILE_TOLERANCE` (the published cell: 0.05 + 0.10 + 0.005 = 0.155 m; one standing
+    there tops 0.30 m)."""
+    widest = float(model.geom_size[list(handles.target_geoms), 0].max())
+    return layout.bin.floor_top + 2.0 * widest + PILE_TOLERANCE
+
+
+def spots_with_room(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    layout: CellLayout,
+    handles: CellHandles,
+    length: float,
+    spots: Sequence[int],
+) -> tuple[int, ...]:
+    """Those of ``spots`` (0-based) with room for a cylinder ``length`` [m] long dropped now:
+    the pile under its footprint is no higher than a cylinder on its side (:func:`lying_top`;
+    one dropped on a standing cylinder may topple across its neighbours' tops, see the module
+    doc), and should it tumble back onto what stands in the band behind the spot, its centre
+    stays below the rim (:func:`pile_heights`)."""
+    under, behind = pile_heights(model, data, layout, handles)
+    low, rim = lying_top(model, layout, handles), layout.bin.rim
+    return tuple(
+        s for s in spots if under[s] <= low and max(under[s], behind[s]) + length / 2.0 < rim
     )
 
 

@@ -21,8 +21,8 @@ from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig, TargetSpec
 from kr210_sim.errors import ConfigError, IkFailedError, PlanningError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
-from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step
-from kr210_sim.plan.landing import drop_heights, landing_blockers, usable_drop_spots
+from kr210_sim.plan.cycle import CyclePlan, Grip, Move, Step, drop_spot_order
+from kr210_sim.plan.landing import landing_blockers, spots_with_room, usable_drop_spots
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
@@ -212,53 +212,57 @@ class Runner:
     ) -> CyclePlan:
         """The whole cycle for the target in play, observed at ``position`` [m]: from
         ``q_start`` [rad] (default: where the arm is commanded now) to the next of
-        :attr:`drop_spots` in turn whose place can be planned
-        (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
+        :attr:`drop_spots` in turn with room (:meth:`drop_spots_with_room`) whose place can
+        be planned (:func:`~kr210_sim.plan.cycle.drop_spot_order`).
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
                 :meth:`~kr210_sim.plan.planner.Planner.plan_cycle`.
         """
+        placed = len(self.targets.in_play) - 1
+        room = self.drop_spots_with_room(spec.length)
+        # the turn goes over all of drop_spots: a spot with no room does not shift the others'
+        order = drop_spot_order(placed, room, self.dropped, self.drop_spots)
         return self.planner.plan_cycle(
             self.q_cmd if q_start is None else q_start,
             position,
             spec,
             self.layout.drop_spots,
-            placed=len(self.targets.in_play) - 1,
-            usable=self.drop_spots_with_room(spec.length),
-            dropped=self.dropped,
+            usable=order,  # tried in this order (placed 0, no counts: as given)
         )
 
     def drop_spots_with_room(self, length: float) -> tuple[int, ...]:
-        """The :attr:`drop_spots` where a cylinder ``length`` [m] long, dropped now, would
-        come to rest with its centre below the rim, standing on what lies there already
-        (:func:`~kr210_sim.plan.landing.drop_heights`): a cylinder dropped on a tower of them
-        would not count."""
+        """The :attr:`drop_spots` where a cylinder ``length`` [m] long, dropped now, comes down
+        on the floor or on cylinders lying on their sides, not on one standing (it may topple
+        across its neighbours' tops and be thrown out of the bin), and would keep its centre
+        below the rim should it tumble onto what stands behind the spot
+        (:func:`~kr210_sim.plan.landing.spots_with_room`)."""
         if len(self.targets.in_play) <= 1:  # nothing dropped since the bin was emptied
             return self.drop_spots
         h = self.cell.handles
-        heights = drop_heights(self.model, self.cell.data, self.layout, h)
-        rim = self.layout.bin.rim
-        return tuple(s for s in self.drop_spots if heights[s] + length / 2.0 < rim)
+        return spots_with_room(self.model, self.cell.data, self.layout, h, length, self.drop_spots)
 
     def _plan_making_room(self, index: int, k: int, spec: TargetSpec) -> CyclePlan:
-        """:meth:`plan_cycle` for target ``k``; when it cannot be planned while some drop
-        spots have no room, the bin is emptied first (an event shown before the arm moves;
-        target ``k`` stays in its slot) and the cycle planned again: the spots the carry
-        reaches may be the full ones.
+        """:meth:`plan_cycle` for target ``k``; when no drop spot has room, or the cycle cannot
+        be planned while some have none, the bin is emptied first (an event shown before the
+        arm moves; target ``k`` stays in its slot) and the cycle planned again: the spots the
+        carry reaches may be the full ones.
 
         Raises:
             UnreachablePoseError, NoPathError, IkFailedError, PlanningError: As
                 :meth:`plan_cycle`.
         """
-        try:
-            return self.plan_cycle(self.observe_target(k), spec)
-        except IkFailedError:  # the user's IK is judged as it answered
-            raise
-        except (UnreachablePoseError, PlanningError):
-            if len(self.drop_spots_with_room(spec.length)) == len(self.drop_spots):
+        room = self.drop_spots_with_room(spec.length)
+        why = "no drop spot has room for another cylinder"
+        if room:
+            try:
+                return self.plan_cycle(self.observe_target(k), spec)
+            except IkFailedError:  # the user's IK is judged as it answered
                 raise
-        why = "no drop spot with room for another cylinder could be reached"
+            except (UnreachablePoseError, PlanningError):
+                if len(room) == len(self.drop_spots):
+                    raise
+            why = "no drop spot with room for another cylinder could be reached"
         self._show(self.targets.restock(index, keep=k, why=why))
         self.dropped = [0] * len(self.dropped)
         return self.plan_cycle(self.observe_target(k), spec)
