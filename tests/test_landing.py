@@ -95,11 +95,11 @@ def test_the_tumble_band_lies_behind_the_spot() -> None:
     assert np.diff(np.unique(band[:, 0])).max() <= 0.02 + 1e-12
 
 
-@pytest.mark.parametrize(("upright", "height"), [(True, 0.30), (False, 0.15)])
-def test_drop_heights_see_the_cylinders_in_the_bin(upright: bool, height: float) -> None:
-    """A cylinder standing (lying) at drop spot 1: one dropped there lands 0.25 m (0.10 m)
-    above the floor, on it, and so may one tumbling back from drop spot 4 (0.22 m beyond it);
-    the other spots are free."""
+def _one_at_drop_spot_1(
+    upright: bool,
+) -> tuple[mujoco.MjModel, mujoco.MjData, CellLayout, CellHandles]:
+    """The published cell with a cylinder at drop spot 1 on the bin's floor, standing or lying
+    on its side (along y)."""
     model = model_for()
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
@@ -112,6 +112,15 @@ def test_drop_heights_see_the_cylinders_in_the_bin(upright: bool, height: float)
     else:  # on its side, along y
         data.qpos[a : a + 7] = (x, y, 0.05 + 0.05, np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0)
     mujoco.mj_forward(model, data)
+    return model, data, layout, h
+
+
+@pytest.mark.parametrize(("upright", "height"), [(True, 0.30), (False, 0.15)])
+def test_drop_heights_see_the_cylinders_in_the_bin(upright: bool, height: float) -> None:
+    """A cylinder standing (lying) at drop spot 1: one dropped there lands 0.25 m (0.10 m)
+    above the floor, on it, and so may one tumbling back from drop spot 4 (0.22 m beyond it);
+    the other spots are free."""
+    model, data, layout, h = _one_at_drop_spot_1(upright)
     z = drop_heights(model, data, layout, h)
     assert z[0] == pytest.approx(height, abs=1e-3) and z[3] == pytest.approx(height, abs=1e-3)
     assert np.allclose(np.delete(z, [0, 3]), 0.05, atol=1e-6)
@@ -148,18 +157,7 @@ def test_a_cylinder_standing_at_a_spot_leaves_it_no_room_one_lying_there_does(
     not. Drop spot 4, 0.22 m beyond spot 1, sees the standing one in the band behind it (not
     under its footprint), but a cylinder tumbling onto it keeps its centre (0.30 + 0.125 m)
     below the 1 m rim: room."""
-    model = model_for()
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    h = CellHandles.from_model(model)
-    layout = CellLayout.from_model(model)
-    a = int(h.target_qpos[3])
-    x, y = layout.drop_spots[0]
-    if upright:
-        data.qpos[a : a + 7] = (x, y, 0.05 + 0.125, 1.0, 0.0, 0.0, 0.0)
-    else:  # on its side, along y
-        data.qpos[a : a + 7] = (x, y, 0.05 + 0.05, np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0)
-    mujoco.mj_forward(model, data)
+    model, data, layout, h = _one_at_drop_spot_1(upright)
     assert lying_top(model, layout, h) == pytest.approx(0.155)
     under, behind = pile_heights(model, data, layout, h)
     top = 0.30 if upright else 0.15
