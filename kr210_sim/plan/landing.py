@@ -177,16 +177,6 @@ def pile_heights(
     return under, behind
 
 
-def drop_heights(
-    model: mujoco.MjModel, data: mujoco.MjData, layout: CellLayout, handles: CellHandles
-) -> FloatArray:
-    """Where a cylinder dropped at each drop spot now lands [m]: the higher of the two
-    :func:`pile_heights`, under its footprint and in the band behind it. Shape (number of drop
-    spots,)."""
-    under, behind = pile_heights(model, data, layout, handles)
-    return np.maximum(under, behind)
-
-
 def lying_top(model: mujoco.MjModel, layout: CellLayout, handles: CellHandles) -> float:
     """The highest pile [m] a drop spot may hold and still have room (:func:`spots_with_room`):
     the top of the widest of the cell's cylinders lying on its side on the bin's floor, plus
