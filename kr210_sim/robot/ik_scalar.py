@@ -489,10 +489,16 @@ def nearest_one_py(T: Any, q_ref: Any, g: Geometry) -> list[float]:
     return nearest_solution(flat, hit[1] if hit is not None and hit[0] is g else constants(g), ref)
 
 
+def _pure_asked() -> bool:
+    """Whether the environment asks for the pure-Python path (``KR210_SIM_PURE_IK`` set, not
+    0)."""
+    return os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0")
+
+
 def _load_native() -> Any:
     """The compiled module, set up with this module's functions to fall back on; None when it
     was not built or ``KR210_SIM_PURE_IK=1``."""
-    if os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0"):
+    if _pure_asked():
         return None
     try:
         import kr210_sim.robot._ik_native as _ik_native
@@ -506,7 +512,7 @@ def which_path() -> str:
     """Which single-pose path is in use, and why, in a few words (``--version`` prints it)."""
     if _NATIVE_MODULE is not None:
         return "compiled (kr210_sim.robot._ik_native)"
-    if os.environ.get("KR210_SIM_PURE_IK", "") not in ("", "0"):
+    if _pure_asked():
         return "pure Python (KR210_SIM_PURE_IK is set)"
     return "pure Python (the compiled extension was not built: no C compiler at install?)"
 
