@@ -12,6 +12,7 @@ from kr210_sim.cell.toml import PUBLISHED_CELL, parse_cell
 from kr210_sim.cli import main
 from kr210_sim.errors import UnservableCellError
 from kr210_sim.plan.cellcheck import check_cell, first_served_slot
+from kr210_sim.score.result import EventKind
 from kr210_sim.sim.runner import RunConfig, Runner
 
 CELLS = PUBLISHED_CELL.parent
@@ -212,21 +213,45 @@ def test_check_agrees_with_run_on_cells_drawn_at_random(
 
 
 @pytest.mark.slow
+@pytest.mark.chaotic
 def test_a_full_bin_is_emptied_before_a_cylinder_would_land_on_a_standing_one() -> None:
     """Edge cell 9013 (``cell_sweep.py --kind edge --seed 9000``): check serves every slot, and
     run's tenth cycle (slot 1 again, a cylinder standing at each of the nine drop spots, the
     first knocked 4 deg off the vertical by the eighth, tumbling) dropped its cylinder on the
     first. It toppled across the top of the one at drop 6, where MuJoCo's contact threw it out
-    of the bin (missed_bin at [-1.427, 1.398, 0.05]; ``plan.landing``). Now no drop spot has
-    room for it: the bin is emptied first, and it lands on the floor at drop 1."""
+    of the bin (missed_bin at [-1.427, 1.398, 0.05]; ``plan.landing``).
+
+    Which cycle finds the bin full is chaotic: on this machine the ninth cylinder stands and the
+    bin is emptied before cycle 10; on a Xeon with AVX-512 one tumbled and it was emptied before
+    cycle 9. What holds on any machine is asserted: every cycle succeeds; the bin is emptied
+    only when no drop spot had room (or none with room could be reached), and then all of it;
+    and no cylinder comes to rest on a standing one (a centre at or above the floor plus one
+    length).
+    """
     model = compile_cell(parse_cell(random_cell(9013, "edge").text, "edge_9013.toml"))
     runner = Runner(RunConfig(cycles=10), model=model)
-    results = [runner.run_cycle(i, (i - 1) % 9 + 1) for i in range(1, 11)]
+    results = []
+    for i in range(1, 11):
+        results.append(runner.run_cycle(i, (i - 1) % 9 + 1))
+        for event in runner.events:
+            assert event.before_cycle <= i
     assert [r.success for r in results] == [True] * 10, [r.detail for r in results]
-    (event,) = runner.events
-    assert (event.before_cycle, event.targets) == (10, tuple(range(9)))
-    assert runner.plan is not None and runner.plan.drop_spot == 0
-    assert results[-1].target_final == pytest.approx((-1.770, 2.457, 0.175), abs=0.005)
+    # with tumbles the bin may hold ten (KR210_SIM_PERTURB=-1e-9 here): no event is then due
+    for event in runner.events:
+        assert event.kind is EventKind.BIN_EMPTIED
+        assert event.before_cycle >= 2
+        assert "no drop spot" in event.detail, event.detail
+        # everything dropped since the last emptying goes, the cycle's own cylinder stays
+        assert len(event.targets) == event.before_cycle - 1 - sum(
+            len(e.targets) for e in runner.events if e.before_cycle < event.before_cycle
+        )
+    bin_box = runner.layout.bin
+    for r in results:
+        top = bin_box.floor_top + r.target.spec.length  # a cylinder lying on a standing one
+        assert bin_box.floor_top < r.target_final[2] < top, r.target_final
+        assert all(
+            abs(r.target_final[j] - bin_box.center[j]) < bin_box.inner_half[j] for j in (0, 1)
+        )
 
 
 def test_check_serves_the_slots_ahead_of_a_ready_pose_facing_away(

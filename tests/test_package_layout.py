@@ -121,6 +121,7 @@ FLOW = {
     "util": 1,
     "robot": 2,
     "cell": 3,
+    "perception": 4,
     "plan": 4,
     "score": 4,
     "sim": 5,

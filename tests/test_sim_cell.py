@@ -10,7 +10,7 @@ import pytest
 from kr210_sim.cell.handles import CellHandles
 from kr210_sim.cell.load import load_model
 from kr210_sim.cell.spec import MotionConfig
-from kr210_sim.sim.cell import Cell, TickLog, ramp
+from kr210_sim.sim.cell import PERTURB_ENV, Cell, TickLog, perturbation, ramp
 from kr210_sim.util.paths import SCENE_PATH
 
 
@@ -112,3 +112,33 @@ def test_target_energy_is_translation_plus_rotation() -> None:
     expected = 0.5 * m * v.dot(v) + 0.5 * inertia.dot(w * w)
     assert cell.target_energy(3) == pytest.approx(expected, rel=1e-9)
     assert cell.target_energy(4) == 0.0
+
+
+def test_the_perturbation_nudges_each_initial_state_by_at_most_its_size(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """KR210_SIM_PERTURB=1e-9 moves the arm's reset by a seeded draw in [-1e-9, 1e-9] per
+    joint, the same draw each time; unset, the reset is the keyframe exactly; not a number, a
+    one-line error that names the variable."""
+    model = load_model(SCENE_PATH)
+    monkeypatch.delenv(PERTURB_ENV, raising=False)
+    assert perturbation() == 0.0
+    plain = Cell(model)
+    q0 = plain.q.copy()
+    np.testing.assert_array_equal(q0, model.key_qpos[0][plain.handles.arm_qpos])
+
+    monkeypatch.setenv(PERTURB_ENV, "1e-9")
+    assert perturbation() == 1e-9
+    first, second = Cell(model), Cell(model)
+    offset = first.q - q0
+    assert 0.0 < np.max(np.abs(offset)) <= 1e-9
+    assert len(set(np.sign(offset))) == 2  # a draw, not a shift
+    np.testing.assert_array_equal(first.q, second.q)  # seeded: reproducible
+    first.reset()
+    assert not np.array_equal(first.q, second.q)  # each reset draws anew
+    assert np.max(np.abs(first.q - q0)) <= 1e-9
+
+    for bad in ("tiny", "nan", "inf"):
+        monkeypatch.setenv(PERTURB_ENV, bad)
+        with pytest.raises(ValueError, match="KR210_SIM_PERTURB"):
+            perturbation()

@@ -17,6 +17,7 @@ from kr210_sim.sim.targets import TargetPool
 
 
 @pytest.mark.slow
+@pytest.mark.chaotic
 def test_a_run_past_nine_cycles_empties_the_bin_as_an_event() -> None:
     """Slot 5 twelve times: after nine cycles a cylinder stands at each of the nine drop spots
     and none has room for the tenth (``plan.landing.spots_with_room``), so the bin is emptied
@@ -43,6 +44,7 @@ def test_a_run_past_nine_cycles_empties_the_bin_as_an_event() -> None:
     assert report["events"][0]["kind"] == "bin_emptied"
 
 
+@pytest.mark.chaotic
 def test_a_cycle_with_no_spare_cylinder_left_empties_the_bin_first() -> None:
     """All ten cylinders in play (standing on the floor beside the bin): the next cycle's
     spawn empties the bin and picks them up first, an event before that cycle."""

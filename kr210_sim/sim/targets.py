@@ -73,6 +73,7 @@ class TargetPool:
         a, dof = int(h.target_qpos[k]), int(h.target_dof[k])
         d.qpos[a : a + 3] = np.asarray(position, dtype=np.float64)
         d.qpos[a + 3 : a + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        self.cell.nudge(np.arange(a, a + 3))
         d.qvel[dof : dof + 6] = 0.0
 
     def restock(self, before_cycle: int, keep: int | None = None, why: str = "") -> Event:
