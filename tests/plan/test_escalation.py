@@ -3,6 +3,7 @@ stopping at the first success, and the column cell whose slot 6 one search refus
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -120,3 +121,29 @@ def test_check_serves_the_column_cells_slot_6_and_run_plans_it_alike() -> None:
     sample, k = runner.start_cycle(1, 6)
     plan = runner.plan_cycle(runner.observe_target(k), sample.spec)
     assert plan.drop_spot + 1 == row.drop_spot and plan.moves[0].planner == "ompl"
+
+
+def test_a_move_no_attempt_solves_is_no_path_with_every_check_counted() -> None:
+    """The same approach with two small attempts: both searches run out of checks (RRT too),
+    and the verdict counts the checks of both."""
+    robot = load_robot()
+    checker = CollisionChecker(model_for(cell=COLUMN), Kinematics(robot))
+    planner = Planner(robot, MotionConfig(), None, checker)
+    start, goal = _slot_6_approach(planner)
+    checker.hold(None, None)
+    small = (Attempt("RRTConnect", 0, 400), Attempt("RRT", 1, 600))
+    router = Router(checker, Kinematics(robot), planner.limits, schedule=small)
+    c0 = checker.checks
+    with pytest.raises(NoPathError) as caught:
+        router.route(start, goal, "approach")
+    made = checker.checks - c0
+    message = str(caught.value)
+    assert message.startswith("approach move: left_finger_lip against obstacle_1 at q [")
+    assert (
+        "; OMPL found no collision-free path in 2 searches (RRTConnect seed 0, then RRT seed 1; "
+        "1000 validity checks allowed), " in message
+    )
+    counted = int(message.split("allowed), ")[1].split(" validity checks in all")[0])
+    assert 1000 <= counted <= made < 1100  # each search stops within a few checks of its budget
+    last = r"the last: OMPL's RRT \(seed 1\) found no collision-free path within 600 validity"
+    assert re.search(last + r" checks \(\d+ states checked\)$", message), message
