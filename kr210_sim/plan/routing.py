@@ -2,10 +2,12 @@
 
 :class:`Router` takes a joint move from rest to rest. When the direct, phase-synchronised move
 is clear (:mod:`kr210_sim.plan.collide`) it is used as it is. Otherwise OMPL plans a path
-(:mod:`kr210_sim.plan.sampling_planner`), which is timed through its waypoints without stopping
-(:mod:`kr210_sim.plan.timing`); the timed samples are checked against the cell again and against
-the position, velocity and acceleration limits before the arm may move. Every result carries the
-planner used, the planning time and a lower bound of its duration.
+(:mod:`kr210_sim.plan.sampling_planner`; searched again with other seeds, budgets and planners
+before the move is ``no_path``, :mod:`kr210_sim.plan.escalation`), which is timed through its
+waypoints without stopping (:mod:`kr210_sim.plan.timing`); the timed samples are checked against
+the cell again and against the position, velocity and acceleration limits before the arm may
+move. Every result carries the planner used, the planning time and a lower bound of its
+duration.
 
 :func:`clear_ready` finds the collision-free joint state nearest a ready pose that collides.
 """
@@ -13,6 +15,7 @@ planner used, the planning time and a lower bound of its duration.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,6 +23,7 @@ import numpy.typing as npt
 
 from kr210_sim.errors import NoPathError, PlanningError
 from kr210_sim.plan.collide import CollisionChecker, Hit, check_samples
+from kr210_sim.plan.escalation import SCHEDULE, Attempt, escalate
 from kr210_sim.plan.sampling_planner import SamplingPlanner
 from kr210_sim.plan.timing import check_limits, path_bound, rest_to_rest_bound, time_path
 from kr210_sim.plan.trajectory import JointLimits, Trajectory, plan_ptp
@@ -69,6 +73,8 @@ class Router:
         limits: Joint limits.
         grip_limits: Joint limits of moves that hold the target (default: ``limits``): a move
             is timed with them when the checker holds a target (:meth:`~CollisionChecker.hold`).
+        schedule: The OMPL searches tried in turn before a move is ``no_path``
+            (:mod:`kr210_sim.plan.escalation`).
     """
 
     def __init__(
@@ -77,6 +83,7 @@ class Router:
         kin: Kinematics,
         limits: JointLimits,
         grip_limits: JointLimits | None = None,
+        schedule: Sequence[Attempt] = SCHEDULE,
     ) -> None:
         self.checker = checker
         self.kin = kin
@@ -85,6 +92,10 @@ class Router:
         self._planned: dict[bytes, Routed | NoPathError] = {}
         #: OMPL searches made (a remembered move is not searched again).
         self.searches = 0
+        #: Those the first attempt of :attr:`schedule` did not solve.
+        self.escalated = 0
+        #: The attempts of every search, tried in turn (:func:`escalate`).
+        self.schedule = tuple(schedule)
         self.sampler = SamplingPlanner(checker, limits.lower, limits.upper)
 
     def hit(self, traj: Trajectory) -> Hit | None:
@@ -112,8 +123,9 @@ class Router:
         goal, hold and phase: asked again, the router answers without planning.
 
         Raises:
-            NoPathError: When the direct move collides and OMPL finds no clear path; the
-                message says what blocks the direct move.
+            NoPathError: When the direct move collides and no search of :attr:`schedule`
+                finds a clear path; the message says what blocks the direct move, the searches
+                and the validity checks they made.
             PlanningError: When a trajectory breaks a limit.
         """
         t0 = time.perf_counter()
@@ -159,15 +171,25 @@ class Router:
                 None,
             )
         self.searches += 1
+
+        def search(attempt: Attempt) -> Trajectory:
+            """One attempt: the coarse search's path timed and checked at the fine step; when
+            that is not clear even along its straight segments, a fine search's."""
+            how = (attempt.planner, attempt.seed, attempt.checks)
+            path = self.sampler.plan(q_start, q_goal, held, False, *how)
+            try:
+                return time_path(path.waypoints, limits, self._clear)[0]
+            except PlanningError:
+                path = self.sampler.plan(q_start, q_goal, held, True, *how)
+                return time_path(path.waypoints, limits, self._clear)[0]
+
         try:
-            path = self.sampler.plan(q_start, q_goal, held)
-            try:  # the coarse search's path, timed and checked at the fine step
-                traj, _ = time_path(path.waypoints, limits, self._clear)
-            except PlanningError:  # not clear even along its straight segments: search finely
-                path = self.sampler.plan(q_start, q_goal, held, fine=True)
-                traj, _ = time_path(path.waypoints, limits, self._clear)
+            self.sampler.check_ends(q_start, q_goal)  # no search helps then
+            found = escalate(search, lambda: self.checker.checks, self.schedule)
         except NoPathError as exc:
             raise NoPathError(f"{phase} move: {hit.describe()}; {exc}") from exc
+        self.escalated += found.attempt > 0
+        traj = found.result
         check_limits(traj, limits)
         qs = traj.sample_many(np.linspace(0.0, traj.duration, BOUND_SAMPLES))[0]
         bound = path_bound(qs, limits)

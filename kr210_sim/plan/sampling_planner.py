@@ -20,7 +20,9 @@ on the run's seed, and not on the micrometres by which a cylinder settles on its
 ends, the two searched with other random numbers, and a move RRTConnect solves with some of them
 only was served by one and refused by the other). The search's budget is a number of
 validity checks (:data:`SOLVE_CHECKS`), never seconds, and simplification runs a fixed number of
-rounds, so a loaded or slow machine finds the same paths as a quiet one, only later.
+rounds, so a loaded or slow machine finds the same paths as a quiet one, only later. A move
+one search cannot solve is searched again with other seeds drawn from the same ends, larger
+budgets and another planner (:mod:`kr210_sim.plan.escalation`, by the caller).
 """
 
 from __future__ import annotations
@@ -61,6 +63,9 @@ SOLVE_CHECKS = 30_000
 SEED_GRID = 0.01
 #: Most rounds of vertex reduction and close-vertex collapse.
 SIMPLIFY_ROUNDS = 3
+
+#: The OMPL planners a search may use, by name.
+PLANNERS = {"RRTConnect": og.RRTConnect, "RRT": og.RRT}
 
 ou.setLogLevel(ou.LogLevel.LOG_WARN)
 
@@ -105,14 +110,17 @@ def lever_arms(model: mujoco.MjModel) -> FloatArray:
     return np.array([links[j:].sum() + hand for j in range(6)])
 
 
-def plan_seed(q_start: FloatArray, q_goal: FloatArray, held: bool) -> int:
+def plan_seed(q_start: FloatArray, q_goal: FloatArray, held: bool, attempt: int = 0) -> int:
     """OMPL seed of one plan: from its ends [rad], each joint in steps of :data:`SEED_GRID`,
-    and whether a part is held (never 0)."""
+    whether a part is held and which attempt at the move it is (0, the first: the seed of a
+    single search; never 0)."""
     h = hashlib.sha256()
     for q in (q_start, q_goal):
         steps = np.rint(np.asarray(q, dtype=np.float64).reshape(6) / SEED_GRID).astype(np.int64)
         h.update(steps.tobytes())
     h.update(b"held" if held else b"free")
+    if attempt:
+        h.update(b"attempt %d" % attempt)
     return int.from_bytes(h.digest()[:4], "little") | 1
 
 
@@ -176,7 +184,14 @@ class SamplingPlanner:
         return float(np.sum(self.weights * np.abs(np.asarray(b) - np.asarray(a))))
 
     def plan(
-        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool = False, fine: bool = False
+        self,
+        q_start: npt.ArrayLike,
+        q_goal: npt.ArrayLike,
+        held: bool = False,
+        fine: bool = False,
+        planner: str = "RRTConnect",
+        seed: int = 0,
+        checks: int = SOLVE_CHECKS,
     ) -> SampledPath:
         """A path from ``q_start`` to ``q_goal`` [rad].
 
@@ -191,12 +206,28 @@ class SamplingPlanner:
             held: Whether a part is held (set it on the checker too): the search keeps the
                 gripper near level (:meth:`_coordinates`).
             fine: Search at the fine step.
+            planner: The OMPL planner: "RRTConnect" or "RRT" (both with range
+                :data:`RRT_RANGE`).
+            seed: Which seed of the ends to draw (:func:`plan_seed`'s ``attempt``).
+            checks: Most validity checks of the search.
 
         Raises:
-            NoPathError: When an end collides, or RRTConnect finds no path within
-                :data:`SOLVE_CHECKS` validity checks.
+            NoPathError: When an end collides, or the planner finds no path within ``checks``
+                validity checks.
         """
-        return self._plan(q_start, q_goal, held, SAMPLE_TRAVEL if fine else COARSE_STEP)
+        step = SAMPLE_TRAVEL if fine else COARSE_STEP
+        return self._plan(q_start, q_goal, held, step, planner, seed, checks)
+
+    def check_ends(self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike) -> None:
+        """Raise :class:`NoPathError`, naming what blocks, when an end of a move collides or
+        is outside the limits (under the checker's current hold): no search can help."""
+        valid = self.checker.state_validity()
+        for what, q in (("start", q_start), ("goal", q_goal)):
+            q = np.asarray(q, dtype=np.float64).reshape(6)
+            if not valid(q):
+                hit = self.checker.scan(q[None])
+                blocked = hit.describe() if hit is not None else "it is outside the limits"
+                raise NoPathError(f"the {what} of the move collides: {blocked}")
 
     def segments_clear(self, way: FloatArray) -> bool:
         """Whether the straight segments between ``way``'s states are clear, checked every
@@ -209,20 +240,23 @@ class SamplingPlanner:
         return True
 
     def _plan(
-        self, q_start: npt.ArrayLike, q_goal: npt.ArrayLike, held: bool, step: float
+        self,
+        q_start: npt.ArrayLike,
+        q_goal: npt.ArrayLike,
+        held: bool,
+        step: float,
+        planner: str,
+        seed: int,
+        checks: int,
     ) -> SampledPath:
         """One search at checking ``step`` [m] (see :meth:`plan`)."""
         t0 = time.perf_counter()
         qs = np.asarray(q_start, dtype=np.float64).reshape(6)
         qg = np.asarray(q_goal, dtype=np.float64).reshape(6)
         checks0 = self.checker.checks
+        self.check_ends(qs, qg)
         valid = self.checker.state_validity()
-        for what, q in (("start", qs), ("goal", qg)):
-            if not valid(q):
-                hit = self.checker.scan(q[None])
-                blocked = hit.describe() if hit is not None else "it is outside the limits"
-                raise NoPathError(f"the {what} of the move collides: {blocked}")
-        _seed(plan_seed(qs, qg, held))
+        _seed(plan_seed(qs, qg, held, seed))
         M, lo, hi, w = self._coordinates(held)
         M_inv = np.linalg.inv(M)
         xs, xg = M_inv @ qs, M_inv @ qg
@@ -260,14 +294,16 @@ class SamplingPlanner:
             start[j][0] = float(np.clip(xs[j], lo[j], hi[j]))
             goal[j][0] = float(np.clip(xg[j], lo[j], hi[j]))
         ss.setStartAndGoalStates(start, goal)
-        rrt = og.RRTConnect(si)
-        rrt.setRange(RRT_RANGE)
-        ss.setPlanner(rrt)
-        budget = checks0 + SOLVE_CHECKS
+        if planner not in PLANNERS:
+            raise ValueError(f"unknown OMPL planner {planner!r}: one of {sorted(PLANNERS)}")
+        search = PLANNERS[planner](si)
+        search.setRange(RRT_RANGE)
+        ss.setPlanner(search)
+        budget = checks0 + checks
         ss.solve(ob.PlannerTerminationCondition(lambda: self.checker.checks >= budget))
         if not ss.haveExactSolutionPath():
             raise NoPathError(
-                f"OMPL's RRTConnect found no collision-free path within {SOLVE_CHECKS} "
+                f"OMPL's {planner} (seed {seed}) found no collision-free path within {checks} "
                 f"validity checks ({self.checker.checks - checks0} states checked)"
             )
         path = ss.getSolutionPath()
