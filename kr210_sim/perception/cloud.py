@@ -61,21 +61,29 @@ class BayBox:
 
 
 def crop(
-    points: FloatArray, colours: npt.NDArray[np.uint8], box: BayBox, margin: float = 0.0
+    points: FloatArray,
+    colours: npt.NDArray[np.uint8],
+    box: BayBox,
+    margin: float = 0.0,
+    below: float = 0.0,
 ) -> tuple[FloatArray, npt.NDArray[np.uint8]]:
-    """The points inside ``box`` grown by ``margin`` [m] on every side, in the box frame.
+    """The points inside ``box`` grown by ``margin`` [m] on every side (and by ``below`` [m]
+    more downwards), in the box frame.
 
     Args:
         points: (N, 3) base-frame points [m].
         colours: (N, 3) their colours.
         box: The bay.
         margin: How far outside the box a point may lie and be kept [m] (negative: shrink).
+        below: How much farther below the box's floor a point may lie and be kept [m].
 
     Returns:
         The kept points in the box frame [m] and their colours.
     """
     local = box.to_local(points)
-    inside = np.all(np.abs(local) <= np.asarray(box.half) + margin, axis=1)
+    lim = np.asarray(box.half) + margin
+    inside = np.all(np.abs(local[:, :2]) <= lim[:2], axis=1)
+    inside &= (local[:, 2] <= lim[2]) & (local[:, 2] >= -lim[2] - below)
     return local[inside], colours[inside]
 
 
@@ -109,12 +117,16 @@ def voxel_downsample(
     return means, cmeans
 
 
-def _roi(obs: Observation, box: BayBox, margin: float) -> tuple[int, int, int, int, float] | None:
+def _roi(
+    obs: Observation, box: BayBox, margin: float, below: float
+) -> tuple[int, int, int, int, float] | None:
     """The pixel rectangle (u0, u1, v0, v1) holding the box's image, and the nearest corner's
     depth [m]; None when the box is not in front of the camera or outside the image."""
     h = np.asarray(box.half) + margin
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    corners = box.to_base(signs * h)
+    corners = signs * h
+    corners[corners[:, 2] < 0.0, 2] -= below
+    corners = box.to_base(corners)
     T = np.asarray(obs.T_base_camera, dtype=np.float64)
     cam = (corners - T[:3, 3]) @ T[:3, :3]
     z = cam[:, 2]
@@ -134,7 +146,7 @@ def _roi(obs: Observation, box: BayBox, margin: float) -> tuple[int, int, int, i
 
 
 def bay_cloud(
-    obs: Observation, box: BayBox, margin: float, voxel: float
+    obs: Observation, box: BayBox, margin: float, voxel: float, below: float = 0.0
 ) -> tuple[FloatArray, npt.NDArray[np.uint8]]:
     """The observation's points inside the bay (grown by ``margin`` [m]) in the box frame.
 
@@ -147,11 +159,12 @@ def bay_cloud(
         box: The bay.
         margin: How far outside the box a point may lie and be kept [m].
         voxel: The voxel the cloud is thinned to afterwards [m] (sets the stride).
+        below: How much farther below the box's floor a point may lie and be kept [m].
 
     Returns:
         The (N, 3) points [m] in the box frame and their colours.
     """
-    roi = _roi(obs, box, margin)
+    roi = _roi(obs, box, margin, below)
     if roi is None:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint8)
     u0, u1, v0, v1, z_near = roi
@@ -170,4 +183,4 @@ def bay_cloud(
     T = np.asarray(obs.T_base_camera, dtype=np.float64)
     base = pts @ T[:3, :3].T + T[:3, 3]
     colours = obs.rgb[v0:v1:step, u0:u1:step][valid]
-    return crop(base, colours, box, margin)
+    return crop(base, colours, box, margin, below)

@@ -136,9 +136,7 @@ class Cast:
     cos_incidence: FloatArray
 
 
-def cast(
-    primitives: list[Primitive], intrinsics: Intrinsics, T_base_camera: npt.ArrayLike
-) -> Cast:
+def cast(primitives: list[Primitive], intrinsics: Intrinsics, T_base_camera: npt.ArrayLike) -> Cast:
     """Ray-cast ``primitives`` from a pinhole camera.
 
     Args:
