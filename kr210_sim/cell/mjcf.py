@@ -43,6 +43,8 @@ from kr210_sim.cell.robot_model import (
     configure_robot,
     look_at,
 )
+from kr210_sim.cell.sensing import TARGET_RGB
+from kr210_sim.cell.sensing_mjcf import add_sensing
 from kr210_sim.cell.spec import (
     SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
@@ -82,7 +84,7 @@ TIMESTEP = 0.002
 #: Offscreen framebuffer size in [px] (largest video frame).
 OFFSCREEN_SIZE = (1920, 1088)
 
-TARGET_RGBA = (0.1, 0.35, 0.95, 1.0)
+TARGET_RGBA = (*TARGET_RGB, 1.0)
 SHELF_RGBA = (0.55, 0.42, 0.3, 1.0)
 BIN_RGBA = (0.3, 0.32, 0.36, 1.0)
 OBSTACLE_RGBA = (0.85, 0.75, 0.2, 1.0)
@@ -461,6 +463,7 @@ def build_spec(
     _add_bin(spec, cell.bin, static)
     _add_obstacles(spec, cell.obstacles, static)
     _add_targets(spec, cell)
+    add_sensing(spec, cell)
     _dress(spec, cell, visual, mesh_dir)
     add_hulls(spec, hull, fine=planning)  # one per finish of each link's mesh
     add_draw_meshes(spec)
