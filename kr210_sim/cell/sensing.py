@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.spec import ShelfSpec
 from kr210_sim.errors import ConfigError
 
 #: Where a sensor is mounted: fixed in the cell (the base frame) or on ``gripper_link``.
@@ -186,41 +185,6 @@ class ClutterSpec:
             raise ConfigError(f"clutter gap must be 0 < low <= high, got {self.gap}")
 
 
-def default_sensors(shelf: ShelfSpec) -> tuple[SensorSpec, ...]:
-    """The sensors of a cell file that declares none: a fixed RGB-D sensor (a RealSense
-    D415's noise) 2.3 m in front of the shelf and to its right, at the middle row's height,
-    seeing every bay; and the wrist camera (``gripper``, a D435's noise).
-
-    Args:
-        shelf: The cell's shelf (the fixed sensor is placed in its frame).
-    """
-    tops = shelf.board_tops
-    mid = round((tops[0] + tops[-1]) / 2.0 + 0.12, 6)
-    front = -shelf.depth / 2.0
-    position = shelf.to_world((front - 2.3, -0.6, 0.0))
-    at = shelf.to_world((front + 0.15, 0.0, 0.0))
-    fixed = SensorSpec(
-        name="shelf_rgbd",
-        mount="world",
-        position=(float(position[0]), float(position[1]), round(mid + 0.35, 6)),
-        look_at=(float(at[0]), float(at[1]), mid),
-        quaternion=None,
-        resolution=(640, 480),
-        fovy_deg=52.0,
-        near=0.16,
-        far=10.0,
-        noise="d415",
-    )
-    wrist = SensorSpec(
-        name="gripper",
-        mount="gripper",
-        position=WRIST_POSITION,
-        look_at=WRIST_LOOK_AT,
-        quaternion=None,
-        resolution=(640, 480),
-        fovy_deg=70.0,
-        near=0.105,
-        far=10.0,
-        noise="d435",
-    )
-    return (fixed, wrist)
+def clutter_name(kind: str, j: int) -> str:
+    """Body (and geom) name of clutter object ``j`` (0-based) of ``kind``."""
+    return f"clutter_{kind}_{j}"

@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 from kr210_sim.cell.robot_model import GRASP_SOLIMP, GRASP_SOLREF, TARGET_AFFINITY, TARGET_BIT
-from kr210_sim.cell.sensing import SHAPES, ObjectKind, SensorSpec
+from kr210_sim.cell.sensing import SHAPES, ObjectKind, SensorSpec, clutter_name
 from kr210_sim.cell.spec import CellConfig
 from kr210_sim.errors import SceneError
 
@@ -32,11 +32,6 @@ _GEOM_TYPES = {
     "box": mujoco.mjtGeom.mjGEOM_BOX,
     "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
 }
-
-
-def clutter_name(kind: str, j: int) -> str:
-    """Body (and geom) name of clutter object ``j`` (0-based) of ``kind``."""
-    return f"clutter_{kind}_{j}"
 
 
 def add_sensing(spec: mujoco.MjSpec, cell: CellConfig) -> None:

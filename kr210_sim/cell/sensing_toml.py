@@ -2,7 +2,7 @@
 ``[pick]`` (read by :func:`kr210_sim.cell.toml.parse_cell`, each entry checked key by key with
 the same one-line :class:`~kr210_sim.errors.ConfigError` as the rest of the file).
 
-A cell file that declares no sensor gets :func:`~kr210_sim.cell.sensing.default_sensors`; one
+A cell file that declares no sensor gets :func:`default_sensors`; one
 that declares no object kind has no clutter, and its pick list is the cell's own target.
 """
 
@@ -19,10 +19,11 @@ from kr210_sim.cell.sensing import (
     SHAPES,
     SIZE_FIGURES,
     TARGET_KIND,
+    WRIST_LOOK_AT,
+    WRIST_POSITION,
     ClutterSpec,
     ObjectKind,
     SensorSpec,
-    default_sensors,
 )
 from kr210_sim.cell.spec import SHELF_BOARD_THICKNESS, SHELF_POST_WIDTH, ShelfSpec
 from kr210_sim.cell.toml_reader import MASS_RANGE, MIN_LENGTH, Reader, is_number
@@ -56,7 +57,7 @@ MAX_PER_BAY = 8
 MAX_PICKS = 64
 #: Radius range of a kind the gripper can pick [m] (the fingertip lips hold nothing thinner,
 #: the open fingers take nothing thicker: :func:`kr210_sim.plan.poses.grasp_depth`).
-PICK_RADIUS = (0.03, 0.06)
+PICK_RADIUS = (0.04, 0.06)
 #: Headroom above the tallest object in the lowest compartment [m].
 HEADROOM = 0.05
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
@@ -268,3 +269,43 @@ def _read_pick(path: Path, table: Any, kinds: tuple[ObjectKind, ...]) -> tuple[s
     if len(set(rgbs)) != len(rgbs):
         r.fail("order", "kinds of different colours (a target is told by its colour)", order)
     return tuple(str(n) for n in order)
+
+
+def default_sensors(shelf: ShelfSpec) -> tuple[SensorSpec, ...]:
+    """The sensors of a cell file that declares none: a fixed RGB-D sensor (a RealSense
+    D415's noise) 2.3 m in front of the shelf and to its right, at the middle row's height,
+    seeing every bay; and the wrist camera (``gripper``, a D435's noise).
+
+    Args:
+        shelf: The cell's shelf (the fixed sensor is placed in its frame).
+    """
+    tops = shelf.board_tops
+    mid = round((tops[0] + tops[-1]) / 2.0 + 0.12, 6)
+    front = -shelf.depth / 2.0
+    position = shelf.to_world((front - 2.3, -0.6, 0.0))
+    at = shelf.to_world((front + 0.15, 0.0, 0.0))
+    fixed = SensorSpec(
+        name="shelf_rgbd",
+        mount="world",
+        position=(float(position[0]), float(position[1]), round(mid + 0.35, 6)),
+        look_at=(float(at[0]), float(at[1]), mid),
+        quaternion=None,
+        resolution=(640, 480),
+        fovy_deg=52.0,
+        near=0.16,
+        far=10.0,
+        noise="d415",
+    )
+    wrist = SensorSpec(
+        name="gripper",
+        mount="gripper",
+        position=WRIST_POSITION,
+        look_at=WRIST_LOOK_AT,
+        quaternion=None,
+        resolution=(640, 480),
+        fovy_deg=70.0,
+        near=0.105,
+        far=10.0,
+        noise="d435",
+    )
+    return (fixed, wrist)

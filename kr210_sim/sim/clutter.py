@@ -14,6 +14,7 @@ Objects that are not drawn wait parked off the floor's marked area, as spare tar
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -21,10 +22,16 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.sensing import TARGET_KIND, TARGET_RGB, ClutterSpec, ObjectKind
-from kr210_sim.cell.sensing_layout import clutter_of, kinds_of
-from kr210_sim.cell.sensing_mjcf import clutter_name
+from kr210_sim.cell.sensing import (
+    TARGET_KIND,
+    TARGET_RGB,
+    ClutterSpec,
+    ObjectKind,
+    clutter_name,
+)
+from kr210_sim.cell.sensing_layout import clutter_of, kinds_of, pick_list_of
 from kr210_sim.cell.spec import SHELF_POST_WIDTH, TargetSpec
+from kr210_sim.score.result import TargetSample
 
 import mujoco  # isort: skip
 
@@ -139,6 +146,10 @@ class Clutter:
             self.dof[name] = [int(model.jnt_dofadr[j]) for j in joints]
         #: The placements of the last draw.
         self.placed: tuple[Placement, ...] = ()
+        #: The kinds picked in turn (the pick list).
+        self.picks = pick_list_of(model)
+        #: The kind of the cycle's target (set by :meth:`dress_target`).
+        self.kind = TARGET_KIND
 
     @property
     def active(self) -> bool:
@@ -282,6 +293,45 @@ class Clutter:
             else:
                 hi = mid
         return xy + lo * step
+
+    def dress_target(
+        self, sample: TargetSample, index: int
+    ) -> tuple[TargetSample, tuple[float, float, float]]:
+        """Cycle ``index``'s target (1-based) made as the pick list's kind for that cycle: the
+        drawn sample unchanged for the cell's own target, else the kind's size, mass and
+        friction standing on the same board; and the colour it wears."""
+        self.kind = self.picks[(index - 1) % len(self.picks)]
+        spec, rgb = pick_target(self.kind, self.layout, self.kinds)
+        if self.kind == TARGET_KIND:
+            return sample, rgb
+        x, y, z = sample.position
+        board = z - sample.spec.length / 2.0
+        position = (x, y, board + spec.length / 2.0)
+        return dataclasses.replace(sample, spec=spec, position=position), rgb
+
+    def scatter(
+        self,
+        data: mujoco.MjData,
+        sample: TargetSample,
+        index: int,
+        rng: np.random.Generator | None = None,
+    ) -> tuple[Placement, ...]:
+        """Clutter the shelf for cycle ``index`` around its target ``sample`` (spawned): drawn
+        from ``rng`` (``--randomize``: the run's generator), else from the cell's clutter seed
+        and the cycle (the same shelf every run). Nothing happens on a tidy shelf.
+
+        Returns:
+            The placements (none on a tidy shelf).
+        """
+        if not self.active:
+            return ()
+        assert self.spec is not None
+        gen = rng if rng is not None else np.random.default_rng([self.spec.seed, index])
+        xy = sample.position[:2]
+        placements = self.draw(gen, sample.slot, xy, sample.spec.radius, self.kind)
+        self.place(data, placements)
+        mujoco.mj_forward(self.model, data)
+        return placements
 
     def place(self, data: mujoco.MjData, placements: tuple[Placement, ...]) -> None:
         """Park every distractor, then stand the drawn ones at rest where drawn (no step

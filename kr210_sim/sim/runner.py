@@ -39,6 +39,7 @@ from kr210_sim.score.scoring import (
     plan_failure,
 )
 from kr210_sim.sim.cell import Cell, TickLog, hold
+from kr210_sim.sim.clutter import Clutter
 from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
@@ -189,6 +190,8 @@ class Runner:
         self.keep_recordings = keep_recordings
         self.recordings: list[TickLog] = []
         self.targets = TargetPool(self.cell, self.layout)
+        #: The cell's distractors and pick list (nothing happens on a tidy shelf).
+        self.clutter = Clutter(self.model, self.layout)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -272,13 +275,13 @@ class Runner:
         """What was done to the cylinders between cycles (bin emptied, shelf cleared)."""
         return self.targets.events
 
-    def _spawn(self, sample: TargetSample) -> int:
+    def _spawn(self, sample: TargetSample, rgb: tuple[float, float, float] | None = None) -> int:
         """Place a spare target at the sample's pose; return its index. When no spare is left,
         the bin is emptied first: an event, shown for :data:`EVENT_SHOW` s of simulated time."""
         if not self.targets.spare:
             self._show(self.targets.restock(int(self.status["cycle"])))  # type: ignore[call-overload]
             self.dropped = [0] * len(self.dropped)
-        return self.targets.spawn(sample.position, sample.yaw, sample.spec)
+        return self.targets.spawn(sample.position, sample.yaw, sample.spec, rgb)
 
     def _show(self, event: Event) -> None:
         """Hold the arm still while the overlay names ``event`` (the video shows it)."""
@@ -353,8 +356,12 @@ class Runner:
         """Start cycle ``index``: draw its target for ``slot``, spawn it and let it settle for
         :data:`SPAWN_SETTLE` s; the target and its index in the pool."""
         sample = sample_target(self.rng, self.config, self.layout, slot)
+        sample, rgb = self.clutter.dress_target(sample, index)  # the pick list's kind
         self.status.update(cycle=index, slot=slot, phase="spawn")
-        k = self._spawn(sample)
+        k = self._spawn(sample, rgb)
+        self.clutter.scatter(
+            self.cell.data, sample, index, self.rng if self.config.randomize else None
+        )
         self._hold(SPAWN_SETTLE, rec, "spawn", {} if phases is None else phases, step=False)
         return sample, k
 
