@@ -183,18 +183,20 @@ def apply_noise(
     """
     z = np.asarray(depth, dtype=np.float64)
     valid = z > 0
-    # missing pixels, judged on the perfect images
-    p_miss = np.nan_to_num(model.grazing_dropout(incidence_deg(z, intrinsics)), nan=0.0)
-    lum = (rgb.astype(np.float64) @ np.array([0.299, 0.587, 0.114])) / 255.0
-    dark = np.clip((model.dark_luminance - lum) / model.dark_luminance, 0.0, 1.0)
-    p_miss = 1.0 - (1.0 - p_miss) * (1.0 - model.dark_dropout * dark)
-    shiny = np.all(rgb >= model.saturated, axis=-1)
-    p_miss = np.where(shiny, 1.0 - (1.0 - p_miss) * (1.0 - model.saturated_dropout), p_miss)
     # flying pixels: a share of edge pixels take a depth between the two sides
     edge, partner = _edge_partner(z, model.edge_jump)
     fly = edge & (rng.random(z.shape) < model.flying_share)
     t = rng.uniform(0.1, 0.9, size=z.shape)
     z_true = np.where(fly, z + t * (partner - z), z)
+    # missing pixels, judged on the perfect images (an edge's slope is no surface's: the edge
+    # has its flying pixels instead)
+    p_miss = np.nan_to_num(model.grazing_dropout(incidence_deg(z, intrinsics)), nan=0.0)
+    p_miss[edge] = 0.0
+    lum = (rgb.astype(np.float64) @ np.array([0.299, 0.587, 0.114])) / 255.0
+    dark = np.clip((model.dark_luminance - lum) / model.dark_luminance, 0.0, 1.0)
+    p_miss = 1.0 - (1.0 - p_miss) * (1.0 - model.dark_dropout * dark)
+    shiny = np.all(rgb >= model.saturated, axis=-1)
+    p_miss = np.where(shiny, 1.0 - (1.0 - p_miss) * (1.0 - model.saturated_dropout), p_miss)
     # range noise in disparity, its 1/32 px step, and the 1 mm unit
     fb = model.focal_px * model.baseline
     with np.errstate(divide="ignore"):
