@@ -126,39 +126,55 @@ MODELS: dict[str, DepthNoise] = {
 
 def incidence_deg(depth: npt.NDArray[np.floating], intrinsics: Intrinsics) -> FloatArray:
     """Angle between each pixel's ray and the surface normal [deg], from the depth image's
-    neighbours (central differences; NaN where a neighbour is missing)."""
-    z = np.asarray(depth, dtype=np.float64)
+    neighbours (central differences; NaN on the border and where a neighbour is missing)."""
+    z = np.asarray(depth, dtype=np.float32)
     h, w = z.shape
-    u = (np.arange(w) - intrinsics.cx) / intrinsics.fx
-    v = (np.arange(h) - intrinsics.cy) / intrinsics.fy
-    rays = np.stack(np.broadcast_arrays(u[None, :], v[:, None], np.ones((h, w))), axis=-1)
-    pts = rays * z[..., None]
-    pts[z <= 0] = np.nan
-    du = np.full_like(pts, np.nan)
-    dv = np.full_like(pts, np.nan)
-    du[:, 1:-1] = pts[:, 2:] - pts[:, :-2]
-    dv[1:-1, :] = pts[2:, :] - pts[:-2, :]
-    n = np.cross(du, dv)
-    cos = np.abs(np.einsum("ijk,ijk->ij", n, rays)) / (
-        np.linalg.norm(n, axis=-1) * np.linalg.norm(rays, axis=-1)
-    )
-    with np.errstate(invalid="ignore"):
-        return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
+    x = ((np.arange(w, dtype=np.float32) - intrinsics.cx) / intrinsics.fx)[None, :]
+    y = ((np.arange(h, dtype=np.float32) - intrinsics.cy) / intrinsics.fy)[:, None]
+    X, Y = x * z, y * z
+    # the tangents along the rows and the columns (interior pixels)
+    ax = X[1:-1, 2:] - X[1:-1, :-2]
+    ay = Y[1:-1, 2:] - Y[1:-1, :-2]
+    az = z[1:-1, 2:] - z[1:-1, :-2]
+    bx = X[2:, 1:-1] - X[:-2, 1:-1]
+    by = Y[2:, 1:-1] - Y[:-2, 1:-1]
+    bz = z[2:, 1:-1] - z[:-2, 1:-1]
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    rx, ry = x[:, 1:-1], y[1:-1, :]
+    dot = np.abs(nx * rx + ny * ry + nz)
+    norm = np.sqrt((nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + 1.0))
+    out = np.full((h, w), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.clip(dot / norm, 0.0, 1.0)
+        inner = np.degrees(np.arccos(cos, dtype=np.float32))
+    missing = z <= 0
+    near_missing = missing[1:-1, 2:] | missing[1:-1, :-2] | missing[2:, 1:-1] | missing[:-2, 1:-1]
+    inner[near_missing | missing[1:-1, 1:-1]] = np.nan
+    out[1:-1, 1:-1] = inner
+    return out
 
 
-def _edge_partner(z: FloatArray, jump: float) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+def _edge_partner(
+    z: npt.NDArray[np.float32], jump: float
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float32]]:
     """Pixels at a depth edge, and the depth across it (the neighbour farthest in depth)."""
-    h, w = z.shape
-    pad = np.pad(z, 1, mode="edge")
     best = np.zeros_like(z)
     partner = z.copy()
-    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        nb = pad[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
-        diff = np.where(nb > 0, np.abs(nb - z), 0.0)
-        better = diff > best
-        best = np.where(better, diff, best)
-        partner = np.where(better, nb, partner)
-    edge = (z > 0) & (best > jump * np.minimum(z, partner))
+    d_h = np.abs(z[:, 1:] - z[:, :-1])
+    d_v = np.abs(z[1:, :] - z[:-1, :])
+    d_h[(z[:, 1:] <= 0) | (z[:, :-1] <= 0)] = 0.0
+    d_v[(z[1:, :] <= 0) | (z[:-1, :] <= 0)] = 0.0
+    for here, there, diff in (
+        ((slice(None), slice(None, -1)), (slice(None), slice(1, None)), d_h),
+        ((slice(None), slice(1, None)), (slice(None), slice(None, -1)), d_h),
+        ((slice(None, -1), slice(None)), (slice(1, None), slice(None)), d_v),
+        ((slice(1, None), slice(None)), (slice(None, -1), slice(None)), d_v),
+    ):
+        b, p = best[here], partner[here]
+        better = diff > b
+        b[better] = diff[better]
+        p[better] = z[there][better]
+    edge = (z > 0) & (best > np.float32(jump) * np.minimum(z, partner))
     return edge, partner
 
 
@@ -181,35 +197,44 @@ def apply_noise(
     Returns:
         The noisy colour image and depth image [m] (0 marks a missing pixel), float32.
     """
-    z = np.asarray(depth, dtype=np.float64)
+    z = np.asarray(depth, dtype=np.float32)
     valid = z > 0
     # flying pixels: a share of edge pixels take a depth between the two sides
     edge, partner = _edge_partner(z, model.edge_jump)
-    fly = edge & (rng.random(z.shape) < model.flying_share)
-    t = rng.uniform(0.1, 0.9, size=z.shape)
-    z_true = np.where(fly, z + t * (partner - z), z)
+    rows, cols = np.nonzero(edge)
+    fly = rng.random(len(rows)) < model.flying_share
+    rows, cols = rows[fly], cols[fly]
+    t = rng.uniform(0.1, 0.9, size=len(rows)).astype(np.float32)
+    z_true = z.copy()
+    z_true[rows, cols] += t * (partner[rows, cols] - z[rows, cols])
     # missing pixels, judged on the perfect images (an edge's slope is no surface's: the edge
     # has its flying pixels instead)
     p_miss = np.nan_to_num(model.grazing_dropout(incidence_deg(z, intrinsics)), nan=0.0)
     p_miss[edge] = 0.0
-    lum = (rgb.astype(np.float64) @ np.array([0.299, 0.587, 0.114])) / 255.0
-    dark = np.clip((model.dark_luminance - lum) / model.dark_luminance, 0.0, 1.0)
-    p_miss = 1.0 - (1.0 - p_miss) * (1.0 - model.dark_dropout * dark)
-    shiny = np.all(rgb >= model.saturated, axis=-1)
-    p_miss = np.where(shiny, 1.0 - (1.0 - p_miss) * (1.0 - model.saturated_dropout), p_miss)
+    lum = (rgb.astype(np.float32) @ np.array([0.299, 0.587, 0.114], dtype=np.float32)) / 255.0
+    dark = lum < model.dark_luminance
+    if dark.any():
+        share = model.dark_dropout * (model.dark_luminance - lum[dark]) / model.dark_luminance
+        p_miss[dark] = 1.0 - (1.0 - p_miss[dark]) * (1.0 - share)
+    shiny = rgb.min(axis=-1) >= model.saturated
+    if shiny.any():
+        p_miss[shiny] = 1.0 - (1.0 - p_miss[shiny]) * (1.0 - model.saturated_dropout)
     # range noise in disparity, its 1/32 px step, and the 1 mm unit
-    fb = model.focal_px * model.baseline
+    fb = np.float32(model.focal_px * model.baseline)
     with np.errstate(divide="ignore"):
-        disparity = np.where(valid, fb / np.where(valid, z_true, 1.0), 0.0)
-    disparity = disparity + rng.normal(0.0, model.subpixel_rms, size=z.shape)
-    disparity = np.round(disparity / model.disparity_step) * model.disparity_step
+        disparity = np.where(valid, fb / np.where(valid, z_true, np.float32(1.0)), np.float32(0.0))
+    disparity += rng.standard_normal(z.shape, dtype=np.float32) * np.float32(model.subpixel_rms)
+    step = np.float32(model.disparity_step)
+    disparity = np.round(disparity / step) * step
     ok = valid & (disparity > 0)
-    noisy = np.where(ok, fb / np.where(ok, disparity, 1.0), 0.0)
-    noisy = np.round(noisy / model.depth_unit) * model.depth_unit
-    missing = rng.random(z.shape) < p_miss
+    with np.errstate(divide="ignore"):
+        noisy = fb / disparity
+    unit = np.float32(model.depth_unit)
+    noisy = np.round(noisy / unit) * unit
+    missing = rng.random(z.shape, dtype=np.float32) < p_miss
     noisy[missing | ~ok] = 0.0
     # colour: read and shot noise
-    img = rgb.astype(np.float64)
-    sigma = np.sqrt(model.rgb_read**2 + model.rgb_gain * img)
-    img = img + rng.normal(0.0, 1.0, size=img.shape) * sigma
-    return np.clip(np.round(img), 0, 255).astype(np.uint8), noisy.astype(np.float32)
+    img = rgb.astype(np.float32)
+    sigma = np.sqrt(np.float32(model.rgb_read**2) + np.float32(model.rgb_gain) * img)
+    img += rng.standard_normal(img.shape, dtype=np.float32) * sigma
+    return np.clip(np.round(img), 0, 255).astype(np.uint8), noisy

@@ -93,15 +93,31 @@ class SensorRig:
         r.update_scene(data, camera=name, scene_option=self.option)
         depth = r.render().astype(np.float32)
         r.disable_depth_rendering()
-        seg = None
-        if segmentation:
-            r.enable_segmentation_rendering()
-            r.update_scene(data, camera=name, scene_option=self.option)
-            raw = r.render()
-            r.disable_segmentation_rendering()
-            geom = mujoco.mjtObj.mjOBJ_GEOM
-            seg = np.where(raw[..., 1] == geom, raw[..., 0], -1).astype(np.int32)
+        seg = self._segment(r) if segmentation else None
         return rgb, depth, seg
+
+    @staticmethod
+    def _segment(r: mujoco.Renderer) -> npt.NDArray[np.int32]:
+        """The model geom seen at each pixel (-1: none or not a geom), from MuJoCo's id-colour
+        render. The scene's geom of each id is looked up for the ids in the image only (MuJoCo's
+        own segmentation render visits every geom of the scene, ~0.35 s with the dressing)."""
+        flags = r.scene.flags
+        saved = (flags[mujoco.mjtRndFlag.mjRND_SEGMENT], flags[mujoco.mjtRndFlag.mjRND_IDCOLOR])
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            img = r.render()
+        finally:
+            flags[mujoco.mjtRndFlag.mjRND_SEGMENT], flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = saved
+        ids = img[..., 0].astype(np.int32) | (img[..., 1].astype(np.int32) << 8)
+        ids |= img[..., 2].astype(np.int32) << 16
+        table = np.full(int(ids.max()) + 1, -1, dtype=np.int32)
+        for sid in np.unique(ids):
+            if sid == 0:  # the background
+                continue
+            g = r.scene.geoms[int(sid) - 1]
+            if g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
+                table[sid] = g.objid
+        return table[ids]
 
     def look(
         self,
