@@ -237,4 +237,4 @@ def apply_noise(
     img = rgb.astype(np.float32)
     sigma = np.sqrt(np.float32(model.rgb_read**2) + np.float32(model.rgb_gain) * img)
     img += rng.standard_normal(img.shape, dtype=np.float32) * sigma
-    return np.clip(np.round(img), 0, 255).astype(np.uint8), noisy
+    return np.clip(np.round(img), 0, 255).astype(np.uint8), noisy.astype(np.float32, copy=False)
