@@ -4,7 +4,9 @@ tested on.
 Each sample is a pure function of ``(seed, i)``: a target of a kind from the cell's pick list
 stands in a random slot (offset and turned as ``--randomize`` draws it), every bay is cluttered
 as :mod:`kr210_sim.sim.clutter` clutters it at the start of a cycle, the arm waits in its
-ready pose, and each world-mounted sensor (or the ones named) takes one look. With each look come
+ready pose, and each world-mounted sensor (or the ones named) takes one look; a sensor on the
+gripper looks from the target's wrist-look pose (:func:`~kr210_sim.sensors.looks.wrist_look_q`),
+the arm put there without moving (a second look as the runner would take it). With each look come
 the objects on the shelf (:func:`~kr210_sim.sensors.truth.shelf_truth`) and, per pixel, which of
 them it shows (MuJoCo's segmentation render): labels for training, never a pipeline's input.
 """
@@ -22,6 +24,9 @@ from kr210_sim.cell.layout import CellLayout, ready_pose
 from kr210_sim.cell.load import model_at
 from kr210_sim.cell.sensing_layout import pick_list_of
 from kr210_sim.perception.camera import Observation
+from kr210_sim.robot.description import load_robot
+from kr210_sim.robot.kinematics import Kinematics
+from kr210_sim.sensors.looks import wrist_look_q
 from kr210_sim.sensors.render import SensorRig
 from kr210_sim.sensors.truth import TruthObject, shelf_truth
 from kr210_sim.sim.cell import Cell
@@ -78,7 +83,10 @@ def render_samples(
     model = cell if isinstance(cell, mujoco.MjModel) else model_at(Path(cell))
     layout = CellLayout.from_model(model)
     sim = Cell(model)
-    sim.reset(ready_pose(model))
+    q_ready = ready_pose(model)
+    sim.reset(q_ready)
+    robot = load_robot()
+    kin = Kinematics(robot)
     rig = SensorRig(model)
     names = sensors or tuple(s.name for s in rig.sensors.values() if s.mount == "world")
     for name in names:
@@ -105,6 +113,14 @@ def render_samples(
                 by_geom[obj.geom] = j
             target = next(j for j, o in enumerate(truth) if o.body == sim.handles.target_bodies[0])
             for name in names:
+                on_gripper = rig.sensor(name).mount == "gripper"
+                q = (
+                    wrist_look_q(kin, robot, position, q_ready, spec.radius)
+                    if on_gripper
+                    else q_ready
+                )
+                sim.data.qpos[sim.handles.arm_qpos] = q
+                mujoco.mj_forward(model, sim.data)
                 obs, seg = rig.look_with_truth(sim.data, name, rng, noise)
                 labels = by_geom[np.where(seg >= 0, seg, model.ngeom)]
                 yield Sample(i, obs, truth, labels, target, slot)

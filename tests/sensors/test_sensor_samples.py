@@ -61,3 +61,22 @@ def test_samples_are_seeded_labelled_and_true_to_the_render() -> None:
     noisy = next(render_samples(model, 1, seed=4))
     assert not np.array_equal(noisy.observation.depth, samples[0].observation.depth)
     assert [o.label for o in noisy.truth] == [o.label for o in samples[0].truth]
+
+
+def test_the_wrist_camera_looks_from_the_standoff_and_sees_the_target_large() -> None:
+    model = model_at(CLUTTERED)
+    fixed, wrist = list(render_samples(model, 1, seed=2, sensors=("shelf_rgbd", "gripper")))
+    assert (fixed.observation.sensor, wrist.observation.sensor) == ("shelf_rgbd", "gripper")
+    near = (wrist.labels == wrist.target).sum()
+    assert near > 3 * (fixed.labels == fixed.target).sum() and near > 2000
+    obs = wrist.observation
+    target = wrist.truth[wrist.target]
+    pts, _ = obs.cloud()
+    mine = pts[wrist.labels[obs.depth > 0] == wrist.target]
+    # noisy (a D435 at about 0.7 m: 3 mm RMS), yet on the target
+    assert _inside(target, mine, 0.015).mean() > 0.97
+    # the camera is in front of the target, above it, looking at it
+    T = obs.T_base_camera
+    to_target = target.position - T[:3, 3]
+    assert 0.5 < np.linalg.norm(to_target) < 1.0
+    assert to_target @ T[:3, 2] / np.linalg.norm(to_target) > 0.9
