@@ -14,7 +14,7 @@
 
 from __future__ import annotations
 
-from kr210_sim.cell.robot_model import GRASP_SOLIMP, GRASP_SOLREF, TARGET_AFFINITY, TARGET_BIT
+from kr210_sim.cell.parts import add_free_part
 from kr210_sim.cell.sensing import SHAPES, ObjectKind, SensorSpec, clutter_name
 from kr210_sim.cell.spec import CellConfig
 from kr210_sim.errors import SceneError
@@ -25,8 +25,6 @@ import mujoco  # isort: skip  (after kr210_sim so MUJOCO_GL is chosen first)
 CLUTTER_PARK = (-3.8, -4.2)
 #: Spacing of parked clutter objects [m].
 CLUTTER_PARK_SPACING = 0.3
-#: Rolling and torsional friction of clutter contacts [m] (as the targets': steel-like).
-_TORSION, _ROLLING = 0.01, 0.0005
 _GEOM_TYPES = {
     "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
     "box": mujoco.mjtGeom.mjGEOM_BOX,
@@ -108,22 +106,15 @@ def _add_kind(spec: mujoco.MjSpec, kind: ObjectKind, row: int) -> None:
     for j in range(kind.count):
         name = clutter_name(kind.name, j)
         pos = [x0 - row * CLUTTER_PARK_SPACING, y0 + j * CLUTTER_PARK_SPACING, hz]
-        body = spec.worldbody.add_body(name=name, pos=pos)
-        body.sleep = mujoco.mjtSleepPolicy.mjSLEEP_INIT
-        body.add_freejoint(name=f"{name}_joint")
-        body.add_geom(
-            name=name,
-            type=_GEOM_TYPES[kind.shape],
-            size=size,
-            mass=kind.mass,
-            rgba=[*kind.rgb, 1.0],
-            contype=TARGET_BIT,
-            conaffinity=TARGET_AFFINITY,
-            condim=6,
-            friction=[kind.friction, _TORSION, _ROLLING],
-            priority=1,
-            solref=list(GRASP_SOLREF),
-            solimp=list(GRASP_SOLIMP),
+        add_free_part(
+            spec,
+            name,
+            pos,
+            _GEOM_TYPES[kind.shape],
+            size,
+            kind.mass,
+            (*kind.rgb, 1.0),
+            kind.friction,
         )
     spec.add_numeric(
         name=f"object_{kind.name}",

@@ -32,6 +32,7 @@ from kr210_sim.cell.sensing import (
 from kr210_sim.cell.sensing_layout import clutter_of, kinds_of, pick_list_of
 from kr210_sim.cell.spec import SHELF_POST_WIDTH, TargetSpec
 from kr210_sim.score.result import TargetSample
+from kr210_sim.sim.cell import Cell
 
 import mujoco  # isort: skip
 
@@ -294,43 +295,45 @@ class Clutter:
                 hi = mid
         return xy + lo * step
 
-    def dress_target(
-        self, sample: TargetSample, index: int
-    ) -> tuple[TargetSample, tuple[float, float, float]]:
+    def dress_target(self, sample: TargetSample, index: int) -> TargetSample:
         """Cycle ``index``'s target (1-based) made as the pick list's kind for that cycle: the
         drawn sample unchanged for the cell's own target, else the kind's size, mass and
-        friction standing on the same board; and the colour it wears."""
+        friction standing on the same board (:meth:`scatter` gives it the kind's colour)."""
         self.kind = self.picks[(index - 1) % len(self.picks)]
-        spec, rgb = pick_target(self.kind, self.layout, self.kinds)
         if self.kind == TARGET_KIND:
-            return sample, rgb
+            return sample
+        spec, _ = pick_target(self.kind, self.layout, self.kinds)
         x, y, z = sample.position
         board = z - sample.spec.length / 2.0
         position = (x, y, board + spec.length / 2.0)
-        return dataclasses.replace(sample, spec=spec, position=position), rgb
+        return dataclasses.replace(sample, spec=spec, position=position)
 
     def scatter(
         self,
-        data: mujoco.MjData,
+        cell: Cell,
+        k: int,
         sample: TargetSample,
         index: int,
         rng: np.random.Generator | None = None,
     ) -> tuple[Placement, ...]:
-        """Clutter the shelf for cycle ``index`` around its target ``sample`` (spawned): drawn
-        from ``rng`` (``--randomize``: the run's generator), else from the cell's clutter seed
-        and the cycle (the same shelf every run). Nothing happens on a tidy shelf.
+        """Colour target ``k`` (spawned as ``sample``) as its kind, and clutter the shelf for
+        cycle ``index`` around it: drawn from ``rng`` (``--randomize``: the run's generator),
+        else from the cell's clutter seed and the cycle (the same shelf every run). A tidy
+        shelf is left as it is.
 
         Returns:
             The placements (none on a tidy shelf).
         """
+        _, rgb = pick_target(self.kind, self.layout, self.kinds)
+        self.model.geom_rgba[int(cell.handles.target_geoms[k]), :3] = rgb
         if not self.active:
             return ()
         assert self.spec is not None
         gen = rng if rng is not None else np.random.default_rng([self.spec.seed, index])
         xy = sample.position[:2]
         placements = self.draw(gen, sample.slot, xy, sample.spec.radius, self.kind)
-        self.place(data, placements)
-        mujoco.mj_forward(self.model, data)
+        self.place(cell.data, placements)
+        mujoco.mj_forward(self.model, cell.data)
         return placements
 
     def place(self, data: mujoco.MjData, placements: tuple[Placement, ...]) -> None:

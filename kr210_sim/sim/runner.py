@@ -275,13 +275,13 @@ class Runner:
         """What was done to the cylinders between cycles (bin emptied, shelf cleared)."""
         return self.targets.events
 
-    def _spawn(self, sample: TargetSample, rgb: tuple[float, float, float] | None = None) -> int:
+    def _spawn(self, sample: TargetSample) -> int:
         """Place a spare target at the sample's pose; return its index. When no spare is left,
         the bin is emptied first: an event, shown for :data:`EVENT_SHOW` s of simulated time."""
         if not self.targets.spare:
             self._show(self.targets.restock(int(self.status["cycle"])))  # type: ignore[call-overload]
             self.dropped = [0] * len(self.dropped)
-        return self.targets.spawn(sample.position, sample.yaw, sample.spec, rgb)
+        return self.targets.spawn(sample.position, sample.yaw, sample.spec)
 
     def _show(self, event: Event) -> None:
         """Hold the arm still while the overlay names ``event`` (the video shows it)."""
@@ -356,11 +356,11 @@ class Runner:
         """Start cycle ``index``: draw its target for ``slot``, spawn it and let it settle for
         :data:`SPAWN_SETTLE` s; the target and its index in the pool."""
         sample = sample_target(self.rng, self.config, self.layout, slot)
-        sample, rgb = self.clutter.dress_target(sample, index)  # the pick list's kind
+        sample = self.clutter.dress_target(sample, index)  # the pick list's kind
         self.status.update(cycle=index, slot=slot, phase="spawn")
-        k = self._spawn(sample, rgb)
+        k = self._spawn(sample)
         self.clutter.scatter(
-            self.cell.data, sample, index, self.rng if self.config.randomize else None
+            self.cell, k, sample, index, self.rng if self.config.randomize else None
         )
         self._hold(SPAWN_SETTLE, rec, "spawn", {} if phases is None else phases, step=False)
         return sample, k

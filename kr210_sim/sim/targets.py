@@ -114,16 +114,9 @@ class TargetPool:
         self.events.append(event)
         return event
 
-    def spawn(
-        self,
-        position: npt.ArrayLike,
-        yaw: float,
-        spec: TargetSpec,
-        rgb: tuple[float, float, float] | None = None,
-    ) -> int:
-        """Put the first spare cylinder, made to ``spec`` (and coloured ``rgb``, None: as it
-        is), upright at ``position`` [m] with ``yaw`` [rad]; it becomes the cell's active
-        target.
+    def spawn(self, position: npt.ArrayLike, yaw: float, spec: TargetSpec) -> int:
+        """Put the first spare cylinder, made to ``spec``, upright at ``position`` [m] with
+        ``yaw`` [rad]; it becomes the cell's active target.
 
         Returns:
             The cylinder's index.
@@ -133,7 +126,7 @@ class TargetPool:
         """
         k = self.spare.pop(0)
         self.in_play.append(k)
-        set_target_spec(self.cell.model, self.cell, k, spec, rgb)
+        set_target_spec(self.cell.model, self.cell, k, spec)
         self._place(k, position, yaw)
         self.cell.active_target = k
         mujoco.mj_forward(self.cell.model, self.cell.data)
