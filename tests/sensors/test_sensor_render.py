@@ -5,17 +5,20 @@ surface where the simulator holds it."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.layout import CellLayout, ready_pose
 from kr210_sim.cell.load import model_at
 from kr210_sim.errors import ConfigError
 from kr210_sim.perception.camera import project
 from kr210_sim.sensors.render import SensorRig
 from kr210_sim.sensors.truth import shelf_truth
+from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.targets import place_upright
 from kr210_sim.util.paths import SCENES_DIR
 
 pytestmark = pytest.mark.render
@@ -106,11 +109,6 @@ def test_k_from_fovy_projects_known_points_onto_their_rendered_pixels() -> None:
 def test_the_fixed_sensor_sees_the_targets_surface_where_the_simulator_holds_it() -> None:
     model = model_at(SCENES_DIR / "cells" / "published.toml")
     layout = CellLayout.from_model(model)
-    data = mujoco.MjData(model)
-    from kr210_sim.cell.layout import ready_pose
-    from kr210_sim.sim.cell import Cell
-    from kr210_sim.sim.targets import place_upright
-
     cell = Cell(model)
     cell.reset(ready_pose(model))
     data = cell.data
@@ -140,3 +138,20 @@ def test_a_scene_without_sensors_is_refused() -> None:
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     with pytest.raises(ConfigError, match="the scene has no sensors"):
         SensorRig(model)
+
+
+@pytest.mark.parametrize(
+    "path", sorted((SCENES_DIR / "cells").glob("*.toml")), ids=lambda p: p.stem
+)
+def test_the_default_fixed_sensor_frames_every_slot_of_every_example_cell(path: Path) -> None:
+    model = model_at(path)
+    layout = CellLayout.from_model(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rig = SensorRig(model)
+    K, T = rig.intrinsics("shelf_rgbd"), rig.pose(data, "shelf_rgbd")
+    for lift in (0.02, layout.target.length):
+        pts = layout.slots + (0.0, 0.0, lift)
+        uv = project((pts - T[:3, 3]) @ T[:3, :3], K)
+        assert np.all((uv[:, 0] > 0) & (uv[:, 0] < K.width - 1)), uv
+        assert np.all((uv[:, 1] > 0) & (uv[:, 1] < K.height - 1)), uv
