@@ -151,7 +151,7 @@ def test_the_default_fixed_sensor_frames_every_slot_of_every_example_cell(path: 
     rig = SensorRig(model)
     K, T = rig.intrinsics("shelf_rgbd"), rig.pose(data, "shelf_rgbd")
     for lift in (0.02, layout.target.length):
-        pts = layout.slots + (0.0, 0.0, lift)
+        pts = layout.slots + np.array([0.0, 0.0, lift])
         uv = project((pts - T[:3, 3]) @ T[:3, :3], K)
         assert np.all((uv[:, 0] > 0) & (uv[:, 0] < K.width - 1)), uv
         assert np.all((uv[:, 1] > 0) & (uv[:, 1] < K.height - 1)), uv
