@@ -13,6 +13,7 @@ them it shows (MuJoCo's segmentation render): labels for training, never a pipel
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,7 +69,8 @@ def render_samples(
     """Render ``n`` seeded scenes of a cluttered shelf, one :class:`Sample` per scene and sensor.
 
     Args:
-        cell: A cell file (``.toml``), an MJCF scene, or a compiled cell model.
+        cell: A cell file (``.toml``), an MJCF scene, or a compiled cell model (not changed:
+            the samples use a copy).
         n: Number of scenes.
         seed: The seed every scene is drawn from (scene i from ``(seed, i)``).
         sensors: The sensors that look (default: every world-mounted one).
@@ -80,7 +82,8 @@ def render_samples(
     Raises:
         ConfigError: When the cell is bad, has no sensors, or names an unknown sensor.
     """
-    model = cell if isinstance(cell, mujoco.MjModel) else model_at(Path(cell))
+    # a copy: the samples resize and recolour the target
+    model = copy.copy(cell) if isinstance(cell, mujoco.MjModel) else model_at(Path(cell))
     layout = CellLayout.from_model(model)
     sim = Cell(model)
     q_ready = ready_pose(model)

@@ -29,7 +29,9 @@ def _inside(obj: TruthObject, points: np.ndarray, tol: float) -> np.ndarray:
 
 def test_samples_are_seeded_labelled_and_true_to_the_render() -> None:
     model = model_at(CLUTTERED)
+    before = model.geom_size.copy(), model.geom_rgba.copy()
     samples = list(render_samples(model, 3, seed=4, noise=False))
+    assert np.array_equal(model.geom_size, before[0]) and np.array_equal(model.geom_rgba, before[1])
     assert [s.index for s in samples] == [0, 1, 2]
     assert {s.observation.sensor for s in samples} == {"shelf_rgbd"}
     kinds = {"target", "red_can", "white_bottle", "green_box", "black_box", "yellow_ball"}
