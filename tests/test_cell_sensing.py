@@ -171,3 +171,12 @@ def test_bad_sensor_and_object_entries_are_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not report.exists()
+
+
+def test_a_picked_kind_must_count_standing_in_the_bin() -> None:
+    text = PUBLISHED.replace("size = [1.0, 1.0, 1.0]", "size = [1.0, 1.0, 0.28]")
+    assert text != PUBLISHED
+    kind = KIND.replace("[0.045, 0.22]", "[0.045, 0.5]")
+    parse_cell(text + kind, "fits.toml")  # a distractor may be that long
+    with pytest.raises(ConfigError, match=r"order: expected kinds shorter than 0\.460 m"):
+        parse_cell(text + kind + '[pick]\norder = ["red_can"]\n', "long.toml")

@@ -25,7 +25,7 @@ from kr210_sim.cell.sensing import (
     ObjectKind,
     SensorSpec,
 )
-from kr210_sim.cell.spec import SHELF_BOARD_THICKNESS, SHELF_POST_WIDTH, ShelfSpec
+from kr210_sim.cell.spec import SHELF_BOARD_THICKNESS, SHELF_POST_WIDTH, BinSpec, ShelfSpec
 from kr210_sim.cell.toml_reader import MASS_RANGE, MIN_LENGTH, Reader, is_number
 from kr210_sim.errors import ConfigError
 
@@ -64,7 +64,7 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 
 
 def read_sensing(
-    path: Path, doc: dict[str, Any], shelf: ShelfSpec
+    path: Path, doc: dict[str, Any], shelf: ShelfSpec, bin_: BinSpec
 ) -> tuple[tuple[SensorSpec, ...], tuple[ObjectKind, ...], ClutterSpec | None, tuple[str, ...]]:
     """The sensors, object kinds, clutter and pick list of a cell file's document.
 
@@ -72,6 +72,7 @@ def read_sensing(
         path: The file's name, for error messages.
         doc: The parsed TOML document.
         shelf: The cell's shelf (objects must fit its bays).
+        bin_: The cell's bin (a picked kind must count in it standing on its floor).
 
     Raises:
         ConfigError: One line naming the file, the entry, the key and what was expected.
@@ -85,7 +86,7 @@ def read_sensing(
         clutter = _read_clutter(path, doc["clutter"])
     elif kinds:
         clutter = ClutterSpec()
-    pick = _read_pick(path, doc.get("pick", {}), kinds)
+    pick = _read_pick(path, doc.get("pick", {}), kinds, bin_)
     return sensors, kinds, clutter, pick
 
 
@@ -242,7 +243,9 @@ def _read_clutter(path: Path, table: Any) -> ClutterSpec:
     return ClutterSpec(per_bay=(int(per[0]), int(per[1])), gap=gap, seed=int(seed))
 
 
-def _read_pick(path: Path, table: Any, kinds: tuple[ObjectKind, ...]) -> tuple[str, ...]:
+def _read_pick(
+    path: Path, table: Any, kinds: tuple[ObjectKind, ...], bin_: BinSpec
+) -> tuple[str, ...]:
     """The ``[pick]`` table's ``order``: kinds to pick, in turn (default: the target)."""
     r = Reader(path, "[pick]", table, _PICK_KEYS)
     order = r.table.get("order", [TARGET_KIND])
@@ -262,6 +265,14 @@ def _read_pick(path: Path, table: Any, kinds: tuple[ObjectKind, ...]) -> tuple[s
                 "order",
                 f"kinds the gripper can pick (cylinders of radius {PICK_RADIUS[0]:g} to "
                 f"{PICK_RADIUS[1]:g} m)",
+                name,
+            )
+        rim = bin_.size[2]
+        if bin_.floor_top + kind.size[1] / 2.0 >= rim:
+            r.fail(
+                "order",
+                f"kinds shorter than {2.0 * (rim - bin_.floor_top):.3f} m (standing on the bin's "
+                "floor, a cylinder counts only with its centre below the rim)",
                 name,
             )
     picked = [by_name[n] for n in set(order) if n != TARGET_KIND]
