@@ -11,6 +11,8 @@ and what a depth camera's colour imager needs no more than the pipeline does).
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import numpy.typing as npt
 
@@ -24,9 +26,10 @@ import mujoco  # isort: skip  (after kr210_sim so MUJOCO_GL is chosen first)
 
 
 def look_seed(sensor: SensorSpec, time: float) -> list[int]:
-    """The seed of a look's generator when the caller passes none: the sensor's seed and the
-    look's simulated time [s] in microseconds (the same look, the same noise)."""
-    return [sensor.seed, round(time * 1e6)]
+    """The seed of a look's generator when the caller passes none: the sensor's seed, its name
+    (two sensors looking at once draw apart) and the look's simulated time [s] in microseconds
+    (the same look, the same noise)."""
+    return [sensor.seed, zlib.crc32(sensor.name.encode()), round(time * 1e6)]
 
 
 class SensorRig:
