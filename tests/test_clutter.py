@@ -86,7 +86,10 @@ def test_draws_fill_the_bays_without_overlaps_and_keep_the_corridor_clear(
         board = layout.slots[p.slot - 1]
         assert p.position[2] == pytest.approx(board[2] + kind.half_extents[2])
         local = layout.shelf.local(p.position)
-        assert abs(local[0]) + kind.footprint_radius <= layout.shelf.half[0] + 1e-9
+        hx, hy, _ = kind.half_extents
+        turn = p.yaw - math.atan2(layout.shelf.R[1, 0], layout.shelf.R[0, 0])
+        ex = abs(math.cos(turn)) * hx + abs(math.sin(turn)) * hy if kind.shape == "box" else hx
+        assert -layout.shelf.half[0] < local[0] - ex and local[0] + ex < layout.shelf.half[0] - 0.02
         assert abs(local[1] - layout.shelf.local(board)[1]) < 0.4
         prints.append((p.slot, _footprint(kind, np.array(p.position[:2]), p.yaw)))
     for (sa, a), (sb, b) in itertools.combinations(prints, 2):
