@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.load import model_at
+from kr210_sim.cell.load import compile_cell, model_at
+from kr210_sim.cell.toml import parse_cell
 from kr210_sim.sim.clutter import (
     CORRIDOR_BEHIND,
     CORRIDOR_HALF_WIDTH,
@@ -145,3 +146,26 @@ def test_placed_clutter_stays_put_and_the_target_is_dressed_as_the_pick_list_say
         pos, _ = runner.cell.target_pose(k)
         assert np.linalg.norm(pos - np.array(sample.position)) < 0.003
         mujoco.mj_forward(model, data)
+
+
+def test_a_shelf_turned_half_round_is_cluttered_inside_its_bays() -> None:
+    kinds = "[[objects]]" + CLUTTERED.read_text().split("[[objects]]", 1)[1]
+    text = (SCENES_DIR / "cells" / "other_side.toml").read_text() + "\n" + kinds
+    model = compile_cell(parse_cell(text, "turned.toml"))
+    layout = CellLayout.from_model(model)
+    assert abs(layout.shelf.R[0, 0]) < 1e-9  # turned
+    clutter = Clutter(model, layout)
+    assert clutter.spec is not None
+    for seed in range(10):
+        placed = clutter.draw(np.random.default_rng(seed), 2, layout.slots[1][:2], 0.05)
+        assert len(placed) >= layout.n_slots
+        prints = []
+        for p in placed:
+            kind = clutter.kinds[p.kind]
+            local = layout.shelf.local(p.position)
+            board = layout.shelf.local(layout.slots[p.slot - 1])
+            assert abs(local[0]) + kind.footprint_radius < layout.shelf.half[0] + 0.02
+            assert abs(local[1] - board[1]) < 0.4 and local[2] > board[2]
+            prints.append((p.slot, _footprint(kind, np.array(p.position[:2]), p.yaw)))
+        for (sa, a), (sb, b) in itertools.combinations(prints, 2):
+            assert sa != sb or apart(a, b, clutter.spec.gap[0] - 1e-9)
