@@ -154,7 +154,11 @@ def test_a_sensor_given_by_a_quaternion_is_the_one_given_by_look_at() -> None:
             KIND
             + KIND.replace('"red_can"', '"red_jar"').replace("0.22]", "0.2]")
             + '[pick]\norder = ["red_can", "red_jar"]\n',
-            "order: expected kinds of different colours",
+            "order: expected kinds of different colours, none the target's",
+        ),
+        (
+            KIND.replace("[0.9, 0.1, 0.1]", "[0.1, 0.35, 0.95]") + '[pick]\norder = ["red_can"]\n',
+            "order: expected kinds of different colours, none the target's",
         ),
     ],
 )

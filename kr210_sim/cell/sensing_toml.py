@@ -19,6 +19,7 @@ from kr210_sim.cell.sensing import (
     SHAPES,
     SIZE_FIGURES,
     TARGET_KIND,
+    TARGET_RGB,
     WRIST_LOOK_AT,
     WRIST_POSITION,
     ClutterSpec,
@@ -277,8 +278,12 @@ def _read_pick(
             )
     picked = [by_name[n] for n in set(order) if n != TARGET_KIND]
     rgbs = [k.rgb for k in picked]
-    if len(set(rgbs)) != len(rgbs):
-        r.fail("order", "kinds of different colours (a target is told by its colour)", order)
+    if len(set(rgbs)) != len(rgbs) or any(max(map(abs, _sub(c, TARGET_RGB))) < 1e-3 for c in rgbs):
+        r.fail(
+            "order",
+            "kinds of different colours, none the target's (a target is told by its colour)",
+            order,
+        )
     return tuple(str(n) for n in order)
 
 
@@ -320,3 +325,7 @@ def default_sensors(shelf: ShelfSpec) -> tuple[SensorSpec, ...]:
         noise="d435",
     )
     return (fixed, wrist)
+
+
+def _sub(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(x - y for x, y in zip(a, b, strict=True))

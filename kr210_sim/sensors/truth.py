@@ -1,10 +1,10 @@
 """The truth about what stands on the shelf, for scoring: every object's label, pose and size,
 read from the simulation (never given to a perception pipeline).
 
-Targets (``target_<k>``) are labelled by their colour: the pick kinds have colours of their own
-(:mod:`kr210_sim.cell.sensing_toml` checks it), and a target made for a kind wears the kind's
-colour (:func:`kr210_sim.sim.targets.set_target_spec`). Distractors (``clutter_<kind>_<j>``)
-carry their kind in their name.
+Targets (``target_<k>``) are labelled by their colour: the pick kinds have colours of their own,
+none the target's (:mod:`kr210_sim.cell.sensing_toml` checks it), and a target made for a kind
+wears the kind's colour (:meth:`kr210_sim.sim.clutter.Clutter.scatter`). Distractors
+(``clutter_<kind>_<j>``) carry their kind in their name.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.sensing import TARGET_KIND, ObjectKind
-from kr210_sim.cell.sensing_layout import kinds_of
+from kr210_sim.cell.sensing_layout import kinds_of, pick_list_of
 
 import mujoco  # isort: skip
 
@@ -70,11 +70,12 @@ def _size(shape: str, half: npt.NDArray[np.float64]) -> tuple[float, ...]:
     return (float(half[0]),)
 
 
-def target_label(rgba: npt.ArrayLike, kinds: tuple[ObjectKind, ...]) -> str:
-    """The kind a target cylinder wears, by its colour ("target" when no kind's matches)."""
+def target_label(rgba: npt.ArrayLike, kinds: tuple[ObjectKind, ...], picks: tuple[str, ...]) -> str:
+    """The pick kind a target cylinder wears, by its colour ("target" when no pick kind's
+    matches: the cell's own target)."""
     rgb = np.asarray(rgba, dtype=np.float64)[:3]
     for k in kinds:
-        if k.shape == "cylinder" and np.allclose(rgb, k.rgb, atol=1e-4):
+        if k.name in picks and np.allclose(rgb, k.rgb, atol=1e-4):
             return k.name
     return TARGET_KIND
 
@@ -91,7 +92,7 @@ def shelf_truth(
         layout: The cell's layout (default: read from ``model``).
     """
     layout = layout if layout is not None else CellLayout.from_model(model)
-    kinds = kinds_of(model)
+    kinds, picks = kinds_of(model), pick_list_of(model)
     half = layout.shelf.half + SHELF_MARGIN
     out = []
     for g in range(model.ngeom):
@@ -107,7 +108,7 @@ def shelf_truth(
         if np.any(np.abs(layout.shelf.local(pos)) > half):
             continue
         if is_target:
-            label = target_label(model.geom_rgba[g], kinds)
+            label = target_label(model.geom_rgba[g], kinds, picks)
         else:
             label = name[len("clutter_") :].rsplit("_", 1)[0]
         out.append(
