@@ -120,8 +120,9 @@ def voxel_downsample(
 def _roi(
     obs: Observation, box: BayBox, margin: float, below: float
 ) -> tuple[int, int, int, int, float] | None:
-    """The pixel rectangle (u0, u1, v0, v1) holding the box's image, and the nearest corner's
-    depth [m]; None when the box is not in front of the camera or outside the image."""
+    """The pixel rectangle (u0, u1, v0, v1) holding the box's image, and the depth of the
+    box's centre [m] (of the image's nearer pixels when the box wraps the camera); None when
+    the box is not in front of the camera or outside the image."""
     h = np.asarray(box.half) + margin
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     corners = signs * h
@@ -133,8 +134,10 @@ def _roi(
     k = obs.intrinsics
     if np.all(z <= 0.0):
         return None
-    if np.any(z <= 0.0):  # the box wraps the camera: take the whole image
-        return 0, k.width, 0, k.height, 0.0
+    if np.any(z <= 0.0):  # the box wraps the camera: the whole image, at its nearer depths
+        d = obs.depth[::8, ::8]
+        d = d[d > 0.0]
+        return 0, k.width, 0, k.height, float(np.percentile(d, 10.0)) if d.size else 0.0
     uv = project(cam, k)
     u0 = int(np.clip(np.floor(uv[:, 0].min()), 0, k.width))
     u1 = int(np.clip(np.ceil(uv[:, 0].max()) + 1, 0, k.width))
@@ -142,7 +145,8 @@ def _roi(
     v1 = int(np.clip(np.ceil(uv[:, 1].max()) + 1, 0, k.height))
     if u1 <= u0 or v1 <= v0:
         return None
-    return u0, u1, v0, v1, float(z.min())
+    centre_z = float((np.asarray(box.centre) - T[:3, 3]) @ T[:3, 2])
+    return u0, u1, v0, v1, centre_z
 
 
 def bay_cloud(
@@ -151,8 +155,8 @@ def bay_cloud(
     """The observation's points inside the bay (grown by ``margin`` [m]) in the box frame.
 
     Only the pixels of the rectangle that holds the box's image are back-projected, every
-    ``s``-th row and column where the pixels are much finer than the voxel (a close look), so a
-    look costs what the bay's points cost, not the whole image's.
+    ``s``-th row and column where a voxel at the box's centre spans ``s`` pixels or more (a
+    close look), so a look costs what the bay's points cost, not the whole image's.
 
     Args:
         obs: The look.
@@ -169,7 +173,7 @@ def bay_cloud(
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint8)
     u0, u1, v0, v1, z_near = roi
     k = obs.intrinsics
-    step = max(1, int(voxel * k.fx / max(z_near, 1e-6) / 2.0)) if z_near > 0.0 else 1
+    step = max(1, int(voxel * k.fx / max(z_near, 1e-6))) if z_near > 0.0 else 1
     depth = obs.depth[v0:v1:step, u0:u1:step]
     sub = Intrinsics(
         width=depth.shape[1],

@@ -24,10 +24,17 @@ FloatArray = npt.NDArray[np.float64]
 COLOUR_WEIGHT = 0.15
 
 
+#: Colours darker than this (the brightest channel, 0-255) count as grey: their chromaticity is
+#: mostly noise.
+DARK = 40
+
+
 def chromaticity(colours: npt.NDArray[np.uint8]) -> FloatArray:
-    """(N, 3) shares of red, green and blue in each colour (1/3 each for black)."""
+    """(N, 3) shares of red, green and blue in each colour (1/3 each for a dark one)."""
     c = colours.astype(np.float64) + 1.0
-    return c / c.sum(axis=1, keepdims=True)
+    out = c / c.sum(axis=1, keepdims=True)
+    out[colours.max(axis=1) < DARK] = 1.0 / 3.0
+    return out
 
 
 def cluster(

@@ -24,7 +24,7 @@ from kr210_sim.perception.fits import Fit, fit_box, fit_cylinder, fit_sphere
 from kr210_sim.perception.grasp import Grasp, GripperEnvelope, choose_grasp
 from kr210_sim.perception.kinds import Detection, Pose
 from kr210_sim.perception.model import RecognitionModel
-from kr210_sim.perception.planes import remove_shelf
+from kr210_sim.perception.planes import REQUIRED, remove_shelf
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -170,7 +170,11 @@ def segment(obs: Observation, box: BayBox, rng: np.random.Generator) -> Segments
     local, colours = voxel_downsample(local, colours, voxel)
     t1 = time.process_time()
     timing["cloud"] = t1 - t0
-    removal = remove_shelf(local, box.half, rng)
+    cam_z = float(box.to_local(T[:3, 3])[2])
+    required = (
+        REQUIRED if cam_z > -box.half[2] + 0.05 else tuple(f for f in REQUIRED if f != "board")
+    )
+    removal = remove_shelf(local, box.half, rng, required=required)
     t2 = time.process_time()
     timing["planes"] = t2 - t1
     if removal.problems:
@@ -204,7 +208,6 @@ def analyse(
     T = np.asarray(obs.T_base_camera, dtype=np.float64)
     cam_local = box.to_local(T[:3, 3])
     pts, cols, groups, sigma = seg.points, seg.colours, seg.groups, seg.sigma
-    fa, fb, fc = seg.floor
     feats, nrms = [], []
     for idx in groups:
         nv = normals(pts[idx])
@@ -220,7 +223,7 @@ def analyse(
         kind = model.kind(labels[best])
         centroid = pts[idx].mean(axis=0)
         toward = cam_local - centroid
-        floor_z = fa * centroid[0] + fb * centroid[1] + fc
+        floor_z = -box.half[2]  # objects stand on the board's top, where the layout puts it
         fit = _fit(kind.shape, kind.size, pts[idx], nrms[k], floor_z, toward)
         conf = float(probs[k, best])
         notes = []

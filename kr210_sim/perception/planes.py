@@ -187,10 +187,11 @@ def _under_board(local: FloatArray, half: FloatArray, dist: FloatArray, fit: Pla
     """How many points lie well under a found board within the bay's footprint (0 when fewer
     than :data:`MIN_UNDER` or a fifth of the board's inliers): the board is opaque, so a
     surface seen through it means the plane found is not the board (objects' bottoms seen
-    through a wrong extrinsic, the true board lower down)."""
+    through a wrong extrinsic, the true board lower down). The front 10 cm are left out: the
+    beam under a rack's deck and the flying pixels of the deck's front edge lie there."""
     if not fit.found:
         return 0
-    inner = np.all(np.abs(local[:, :2]) <= half[:2] - 0.03, axis=1)
+    inner = np.all(np.abs(local[:, :2]) <= half[:2] - 0.03, axis=1) & (local[:, 0] > -half[0] + 0.1)
     n = int(np.count_nonzero(inner & (dist < -2.0 * fit.band - 0.01)))
     return n if n >= max(MIN_UNDER, fit.inliers // 5) else 0
 
@@ -199,7 +200,8 @@ def remove_shelf(
     local: FloatArray,
     half: npt.ArrayLike,
     rng: np.random.Generator,
-    max_shift: float = 0.025,
+    max_shift: float = 0.03,
+    required: tuple[str, ...] = REQUIRED,
 ) -> ShelfRemoval:
     """Take the bay's boards, posts and back panel out of its cloud.
 
@@ -209,8 +211,12 @@ def remove_shelf(
             shows by what is seen under it).
         half: The box's half extents [m].
         rng: Seeds RANSAC's draws.
-        max_shift: Largest shift of a face found from the layout's before the cloud is called
-            untrustworthy (a wrong extrinsic) [m].
+        max_shift: Largest shift of a required face from the layout's before the cloud is
+            called untrustworthy (a wrong extrinsic) [m]. The rendered rack's faces lie up to
+            2 cm off the collision shelf's (its deck 2 cm under the board's top, its uprights
+            narrower than the posts): 3 cm allows for that.
+        required: The faces that must be found (the board is left out when the camera sees
+            it edge-on or from below).
 
     Returns:
         The mask of what is not the shelf, each face's plane and the problems found.
@@ -228,11 +234,11 @@ def remove_shelf(
             problems.append(
                 f"{under} points lie under the bay's board as fitted, a surface below it: {check}"
             )
-        elif name in REQUIRED and not fit.found:
+        elif name in required and not fit.found:
             problems.append(
                 f"the bay's {name} is not where the layout puts it ({fit.note}): {check}"
             )
-        elif name in REQUIRED and abs(fit.shift) > max_shift:
+        elif name in required and abs(fit.shift) > max_shift:
             problems.append(
                 f"the bay's {name} is {fit.shift * 1000:+.0f} mm off the layout's: {check}"
             )
