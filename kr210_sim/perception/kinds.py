@@ -96,6 +96,8 @@ class Detection:
         n_points: Points in the cluster.
         centroid: The cluster's centroid [m] in the base frame.
         notes: Why the confidence is low, when it is.
+        measured: Whether the fit measured the object's size (else the kind's was used: a far
+            look, whose pose is only as good as the kind's nominal size).
     """
 
     label: str
@@ -105,3 +107,4 @@ class Detection:
     n_points: int
     centroid: FloatArray
     notes: tuple[str, ...] = field(default_factory=tuple)
+    measured: bool = True
