@@ -35,6 +35,14 @@ CONFIDENT = 0.6
 CROP_MARGIN = 0.03
 #: More margin below the bay's floor [m]: what lies under a fitted board shows a wrong one.
 CROP_BELOW = 0.1
+#: How far inside the posts and the back panel an object's point must lie [m]: a rendered
+#: rack's uprights and bracing stand there, in the far look's noise.
+INSET = 0.01
+#: How far above the board's top (as the layout puts it) an object's point must lie [m]: the
+#: objects stand on it, and a rack's beam rises to 5 mm under it.
+ABOVE_BOARD = 0.008
+#: How far above the board a cluster's lowest points may lie and it still stand on it [m].
+STANDING = 0.03
 #: Fewest valid points of the bay a look needs.
 MIN_BAY_POINTS = 200
 #: The voxel, in pixels at the bay's range.
@@ -182,9 +190,14 @@ def segment(obs: Observation, box: BayBox, rng: np.random.Generator) -> Segments
         return Segments(*nothing, (0.0, 0.0, 0.0), 0.0, voxel, removal.problems, timing)
     board = removal.planes[0]
     sigma = max(board.band / 3.0, 0.0005)
-    inside = removal.keep & np.all(np.abs(local) <= np.asarray(box.half), axis=1)
+    inner = np.asarray(box.half) - (0.0, INSET, 0.0)
+    inside = removal.keep & np.all(np.abs(local) <= inner, axis=1)
+    inside &= (local[:, 0] <= inner[0] - INSET) & (local[:, 2] >= -inner[2] + ABOVE_BOARD)
     pts, cols = local[inside], colours[inside]
     groups = cluster(pts, cols, eps=max(2.5 * voxel, 1.5 * sigma))
+    # what does not stand on the board is not an object (a rack's beam under the board above)
+    floor = -box.half[2] + ABOVE_BOARD
+    groups = [g for g in groups if np.percentile(pts[g, 2], 2.0) < floor + STANDING]
     timing["cluster"] = time.process_time() - t2
     return Segments(pts, cols, groups, board.coef, sigma, voxel, (), timing)
 
