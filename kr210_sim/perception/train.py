@@ -26,7 +26,7 @@ from kr210_sim.perception.cloud import BayBox
 from kr210_sim.perception.features import features
 from kr210_sim.perception.kinds import Kind
 from kr210_sim.perception.model import RecognitionModel
-from kr210_sim.perception.pipeline import segment
+from kr210_sim.perception.pipeline import Segments, segment
 from kr210_sim.perception.synthetic import observe
 from kr210_sim.perception.synthetic_bay import (
     DEFAULT_BAY,
@@ -78,6 +78,18 @@ def label_clusters(
     return out
 
 
+def _add_look(
+    seg: Segments, truths: list[Any], box: BayBox, X: list[FloatArray], y: list[str]
+) -> None:
+    """Append the features and label of each of a look's clusters that covers an object."""
+    for idx, label in zip(
+        seg.groups, label_clusters(seg.points, seg.groups, truths, box), strict=True
+    ):
+        if label:
+            X.append(features(seg.points[idx], seg.colours[idx]))
+            y.append(label)
+
+
 def training_set(
     seed: int, samples: int, kinds: Sequence[Kind] = DEFAULT_KINDS
 ) -> tuple[FloatArray, list[str]]:
@@ -90,13 +102,7 @@ def training_set(
         prims, truths = scene(rng, kinds)
         for T in (fixed_camera(DEFAULT_BAY), wrist_camera(DEFAULT_BAY, truths[0].position)):
             obs, _ = observe(prims, INTRINSICS, T, rng)
-            seg = segment(obs, DEFAULT_BAY, rng)
-            for idx, label in zip(
-                seg.groups, label_clusters(seg.points, seg.groups, truths, DEFAULT_BAY), strict=True
-            ):
-                if label:
-                    X.append(features(seg.points[idx], seg.colours[idx]))
-                    y.append(label)
+            _add_look(segment(obs, DEFAULT_BAY, rng), truths, DEFAULT_BAY, X, y)
     return np.array(X), y
 
 
@@ -116,14 +122,7 @@ def training_set_from_looks(
     y: list[str] = []
     for look in looks:
         box = bay_of(look.slot)
-        seg = segment(look.observation, box, rng)
-        truths = list(look.truth)
-        for idx, label in zip(
-            seg.groups, label_clusters(seg.points, seg.groups, truths, box), strict=True
-        ):
-            if label:
-                X.append(features(seg.points[idx], seg.colours[idx]))
-                y.append(label)
+        _add_look(segment(look.observation, box, rng), list(look.truth), box, X, y)
     return np.array(X), y
 
 
