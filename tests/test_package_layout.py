@@ -126,6 +126,7 @@ FLOW = {
     "score": 4,
     "sim": 5,
     "media": 6,
+    "sensors": 6,
     "eval": 7,
     "view": 7,
     "envs": 7,

@@ -288,7 +288,8 @@ def test_unknown_camera_lists_the_cameras(capsys: pytest.CaptureFixture[str]) ->
     assert main(["view", "--web", "--camera", "ceiling", "--cycles", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == (
-        "kr210_sim: error: no camera 'ceiling'; cameras: overview, shelf, bin, hero, gripper"
+        "kr210_sim: error: no camera 'ceiling'; cameras: overview, shelf, bin, hero, shelf_rgbd, "
+        "gripper"
     ), err
 
 

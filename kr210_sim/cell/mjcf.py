@@ -29,20 +29,21 @@ import numpy.typing as npt
 
 from kr210_sim.cell import dressing
 from kr210_sim.cell.handles import ENV_PARTS, target_name
+from kr210_sim.cell.parts import PART_TORSION, add_free_part
 from kr210_sim.cell.robot_model import (
     CELL_AFFINITY,
     CELL_BIT,
     FLOOR_AFFINITY,
     GRASP_SOLIMP,
     GRASP_SOLREF,
-    TARGET_AFFINITY,
-    TARGET_BIT,
     add_actuators,
     add_draw_meshes,
     add_hulls,
     configure_robot,
     look_at,
 )
+from kr210_sim.cell.sensing import TARGET_RGB
+from kr210_sim.cell.sensing_mjcf import add_sensing
 from kr210_sim.cell.spec import (
     SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
@@ -58,19 +59,9 @@ from kr210_sim.util.paths import MESH_DIR, SCENE_PATH, SCENES_DIR, URDF_PATH
 
 import mujoco  # isort: skip  (after kr210_sim so MUJOCO_GL is chosen first)
 
-#: Coefficient of rolling friction of steel on steel, as a length [m] (MuJoCo's rolling
-#: friction: the largest rolling torque is this times the normal force): 0.02 in = 0.5 mm,
-#: "iron on iron" in eMachineShop's table of rolling friction (emachineshop.com/rolling-friction),
-#: 0.5 mm "steel wheels on steel rails" in the Engineering ToolBox's
-#: (engineeringtoolbox.com/rolling-friction-resistance-d_1303.html). The target cylinders are
-#: steel, and so are the bin's walls.
-STEEL_ROLLING = 0.0005
 #: Coefficient of rolling friction of steel on wood [m]: 0.22 in = 5.6 mm, "iron on wood" in the
 #: same eMachineShop table. The bin's floor is lined with wood, as parts bins are against dents.
 WOOD_ROLLING = 0.0056
-#: Torsional friction of the parts' contacts [m] (the largest torque about the contact normal
-#: is this times the normal force).
-PART_TORSION = 0.01
 #: Friction of the bin floor (the wood liner): sliding, torsional [m], rolling [m]. Its rolling
 #: resistance (condim 6, and a higher priority than the targets', so its parameters apply: its
 #: contact stiffness is therefore the targets' too, GRASP_SOLREF) stops a cylinder rolling on
@@ -82,7 +73,7 @@ TIMESTEP = 0.002
 #: Offscreen framebuffer size in [px] (largest video frame).
 OFFSCREEN_SIZE = (1920, 1088)
 
-TARGET_RGBA = (0.1, 0.35, 0.95, 1.0)
+TARGET_RGBA = (*TARGET_RGB, 1.0)
 SHELF_RGBA = (0.55, 0.42, 0.3, 1.0)
 BIN_RGBA = (0.3, 0.32, 0.36, 1.0)
 OBSTACLE_RGBA = (0.85, 0.75, 0.2, 1.0)
@@ -301,25 +292,15 @@ def _add_targets(spec: mujoco.MjSpec, cell: CellConfig) -> None:
     """Ten free target cylinders, parked upright on the floor out of the robot's reach."""
     t = cell.target
     for k in range(cell.n_targets):
-        body = spec.worldbody.add_body(name=target_name(k), pos=list(cell.park_position(k)))
-        body.sleep = mujoco.mjtSleepPolicy.mjSLEEP_INIT
-        body.add_freejoint(name=f"{target_name(k)}_joint")
-        body.add_geom(
-            name=target_name(k),
-            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-            size=[t.radius, t.length / 2.0, 0],
-            mass=t.mass,
-            rgba=list(TARGET_RGBA),
-            contype=TARGET_BIT,
-            conaffinity=TARGET_AFFINITY,
-            # condim 6: rolling and torsional resistance in every contact whose parameters are
-            # the targets' (the higher priority): on another target, a wall, a finger pad, so a
-            # cylinder on a pile stops rolling instead of shifting for seconds.
-            condim=6,
-            friction=[t.friction, PART_TORSION, STEEL_ROLLING],
-            priority=1,
-            solref=list(GRASP_SOLREF),
-            solimp=list(GRASP_SOLIMP),
+        add_free_part(
+            spec,
+            target_name(k),
+            cell.park_position(k),
+            mujoco.mjtGeom.mjGEOM_CYLINDER,
+            [t.radius, t.length / 2.0, 0],
+            t.mass,
+            TARGET_RGBA,
+            t.friction,
         )
 
 
@@ -461,6 +442,7 @@ def build_spec(
     _add_bin(spec, cell.bin, static)
     _add_obstacles(spec, cell.obstacles, static)
     _add_targets(spec, cell)
+    add_sensing(spec, cell)
     _dress(spec, cell, visual, mesh_dir)
     add_hulls(spec, hull, fine=planning)  # one per finish of each link's mesh
     add_draw_meshes(spec)

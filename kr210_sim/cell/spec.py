@@ -9,11 +9,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError
+
+if TYPE_CHECKING:
+    from kr210_sim.cell.sensing import ClutterSpec, ObjectKind, SensorSpec
 
 
 def _check_positive(name: str, value: float) -> None:
@@ -233,6 +237,12 @@ class CellConfig:
         sha256: Hash of the file the cell was read from ("" when built in code).
         ready_q_deg: The ready pose the arm waits in between cycles, joint_1 to joint_6 [deg]
             (``[robot] ready_q``), or None for the motion settings' default.
+        sensors: The RGB-D sensors (``[[sensors]]``; a cell file that declares none gets
+            :func:`~kr210_sim.cell.sensing.default_sensors`; none in a cell built in code).
+        objects: The object kinds that may clutter the shelf (``[[objects]]``).
+        clutter: How the shelf is cluttered each cycle, or None for a tidy shelf.
+        pick: The pick list: kind names picked in turn, cycle after cycle ("target" is the
+            ``[target]`` cylinder).
     """
 
     name: str
@@ -246,6 +256,10 @@ class CellConfig:
     park_spacing: float = 0.3
     sha256: str = ""
     ready_q_deg: tuple[float, float, float, float, float, float] | None = None
+    sensors: tuple[SensorSpec, ...] = ()
+    objects: tuple[ObjectKind, ...] = ()
+    clutter: ClutterSpec | None = None
+    pick: tuple[str, ...] = ("target",)
 
     def __post_init__(self) -> None:
         if self.n_targets < 1:

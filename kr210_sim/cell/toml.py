@@ -1,10 +1,12 @@
 """Cell files: a cell as TOML, checked key by key (compiled by :mod:`kr210_sim.cell.load`).
 
 A cell file has the sections ``[shelf]``, ``[bin]``, ``[target]`` (with ``[target.randomize]``),
-``[robot]`` (its ``ready_q``) and any number of ``[[obstacles]]``; the README lists every key
-with its unit. A bad file is one :class:`~kr210_sim.errors.ConfigError` naming the file, the
-key and what was expected. The published cell is ``scenes/cells/published.toml``;
-``scenes/kr210_cell.xml`` is generated from it.
+``[robot]`` (its ``ready_q``), any number of ``[[obstacles]]``, and the sections about seeing
+(``[[sensors]]``, ``[[objects]]``, ``[clutter]``, ``[pick]``:
+:mod:`kr210_sim.cell.sensing_toml`); the README lists every key with its unit. A bad file is
+one :class:`~kr210_sim.errors.ConfigError` naming the file, the key and what was expected. The
+published cell is ``scenes/cells/published.toml``; ``scenes/kr210_cell.xml`` is generated from
+it.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from kr210_sim.cell.sensing_toml import read_sensing
 from kr210_sim.cell.spec import (
     ROBOT_BASE_HEIGHT,
     ROBOT_BASE_RADIUS,
@@ -32,6 +35,15 @@ from kr210_sim.cell.spec import (
     ShelfSpec,
     TargetSpec,
 )
+from kr210_sim.cell.toml_reader import (
+    FRICTION_RANGE,
+    MASS_RANGE,
+    MAX_LENGTH,
+    MIN_LENGTH,
+    YAW_RANGE,
+    Reader,
+    is_number,
+)
 from kr210_sim.errors import ConfigError
 from kr210_sim.robot.description import load_robot
 from kr210_sim.util.inputs import read_input
@@ -41,22 +53,23 @@ from kr210_sim.util.paths import SCENES_DIR
 PUBLISHED_CELL = SCENES_DIR / "cells" / "published.toml"
 #: Most rows and columns a shelf may have.
 MAX_GRID = 5
-#: Largest length and largest |coordinate| in a cell file [m]: a cell is a room (a shelf 1e300 m
-#: high hung every compile in a loop over its height).
-MAX_LENGTH = 20.0
-#: Smallest size of anything in a cell file [m] (MuJoCo rejects a 1e-300 m radius).
-MIN_LENGTH = 1e-3
-#: Bounds of the target's mass [kg] and friction coefficient.
-MASS_RANGE = (1e-4, 100.0)
-FRICTION_RANGE = (1e-3, 10.0)
-#: Bounds of every yaw [deg].
-YAW_RANGE = (-360.0, 360.0)
 #: Longest cell name (it heads tables and reports) [characters].
 MAX_NAME = 64
 #: Largest cell file [bytes].
 MAX_FILE_BYTES = 1_000_000
 
-_SECTIONS = {"name", "shelf", "bin", "target", "obstacles", "robot"}
+_SECTIONS = {
+    "name",
+    "shelf",
+    "bin",
+    "target",
+    "obstacles",
+    "robot",
+    "sensors",
+    "objects",
+    "clutter",
+    "pick",
+}
 _ROBOT_KEYS = {"ready_q"}
 _SHELF_KEYS = {
     "position",
@@ -74,81 +87,6 @@ _BIN_KEYS = {"position", "size", "wall", "floor_top"}
 _OBSTACLE_KEYS = {"position", "size", "yaw_deg"}
 _TARGET_KEYS = {"radius", "length", "mass", "friction", "randomize"}
 _RANDOM_KEYS = {"xy_offset", "yaw_deg", "radius", "length", "mass", "friction"}
-
-
-class _Reader:
-    """Reads typed values out of one table of a cell file, with one-line errors."""
-
-    def __init__(self, path: Path, section: str, table: Any, keys: set[str]) -> None:
-        self.path, self.section = path, section
-        if not isinstance(table, dict):
-            self.fail("", f"a table ([{section}])", table)
-        unknown = sorted(set(table) - keys)
-        if unknown:
-            raise ConfigError(
-                f"{path}: {section} has an unknown key {unknown[0]!r} "
-                f"(keys: {', '.join(sorted(keys))})"
-            )
-        self.table: dict[str, Any] = table
-
-    def fail(self, key: str, expected: str, got: Any) -> None:
-        where = f"{self.section} {key}".strip()
-        raise ConfigError(f"{self.path}: {where}: expected {expected}, got {got!r}")
-
-    def _get(self, key: str, default: Any) -> Any:
-        if key not in self.table:
-            if default is None:
-                raise ConfigError(f"{self.path}: {self.section} {key}: missing (required)")
-            return default
-        return self.table[key]
-
-    def number(
-        self,
-        key: str,
-        default: float | None = None,
-        bounds: tuple[float, float] = (MIN_LENGTH, MAX_LENGTH),
-        unit: str = "[m]",
-    ) -> float:
-        """A number within ``bounds`` (default: a positive length [m] up to
-        :data:`MAX_LENGTH`)."""
-        v = self._get(key, default)
-        lo, hi = bounds
-        if not _is_number(v) or not lo <= v <= hi:
-            what = "a positive number" if lo > 0 else "a number"
-            self.fail(key, f"{what} {unit} from {lo:g} to {hi:g}", v)
-        return float(v)
-
-    def integer(self, key: str, lo: int, hi: int) -> int:
-        v = self._get(key, None)
-        if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
-            self.fail(key, f"a whole number from {lo} to {hi}", v)
-        return int(v)
-
-    def vector(self, key: str, n: int, positive: bool = False, default: Any = None) -> list[float]:
-        """``n`` numbers: positive lengths (``positive``) or coordinates, each within
-        :data:`MAX_LENGTH` [m]."""
-        v = self._get(key, default)
-        lo, hi = (MIN_LENGTH, MAX_LENGTH) if positive else (-MAX_LENGTH, MAX_LENGTH)
-        ok = isinstance(v, list) and len(v) == n and all(_is_number(x) for x in v)
-        if not ok or not all(lo <= x <= hi for x in v):
-            kind = "positive numbers" if positive else "numbers"
-            self.fail(key, f"a list of {n} {kind} [m], each from {lo:g} to {hi:g}", v)
-        return [float(x) for x in v]
-
-    def range_(
-        self, key: str, default: tuple[float, float], bounds: tuple[float, float]
-    ) -> tuple[float, float]:
-        v = self._get(key, list(default))
-        lo, hi = bounds
-        ok = isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
-        if not ok or not lo <= v[0] <= v[1] <= hi:
-            self.fail(key, f"[low, high] with {lo:g} <= low <= high <= {hi:g}", v)
-        return (float(v[0]), float(v[1]))
-
-
-def _is_number(v: Any) -> bool:
-    """A finite int or float (not a bool)."""
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def _within_joint_limits(path: Path | str, q_deg: tuple[float, ...]) -> None:
@@ -197,6 +135,7 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
     target, randomization = _read_target(path, doc.get("target", {}))
     obstacles = _read_obstacles(path, doc.get("obstacles", []))
     ready_q = _read_robot(path, doc["robot"]) if "robot" in doc else None
+    sensors, kinds, clutter, pick = read_sensing(path, doc, shelf, bin_)
     cell = CellConfig(
         name=name,
         shelf=shelf,
@@ -205,6 +144,10 @@ def parse_cell(text: str, path: Path | str = "<cell>") -> CellConfig:
         randomization=randomization,
         obstacles=obstacles,
         ready_q_deg=ready_q,  # type: ignore[arg-type]
+        sensors=sensors,
+        objects=kinds,
+        clutter=clutter,
+        pick=pick,
         sha256=hashlib.sha256(text.encode()).hexdigest(),
     )
     _check_layout(path, cell)
@@ -230,7 +173,7 @@ def _read_name(path: Path, name: Any) -> str:
     return name
 
 
-def _read_row_pitch(s: _Reader, rows: int) -> tuple[float, ...]:
+def _read_row_pitch(s: Reader, rows: int) -> tuple[float, ...]:
     """``[shelf] row_pitch``: one number for every gap, or a list of ``rows`` - 1 [m]."""
     raw = s.table.get("row_pitch", 0.0 if rows == 1 else None)
     if isinstance(raw, list):
@@ -245,7 +188,7 @@ def _read_row_pitch(s: _Reader, rows: int) -> tuple[float, ...]:
 
 def _read_shelf(path: Path, table: Any) -> ShelfSpec:
     """The ``[shelf]`` section."""
-    s = _Reader(path, "[shelf]", table, _SHELF_KEYS)
+    s = Reader(path, "[shelf]", table, _SHELF_KEYS)
     rows = s.integer("rows", 1, MAX_GRID)
     columns = s.integer("columns", 1, MAX_GRID)
     row_pitch = _read_row_pitch(s, rows)
@@ -276,7 +219,7 @@ def _read_shelf(path: Path, table: Any) -> ShelfSpec:
 
 def _read_bin(path: Path, table: Any) -> BinSpec:
     """The ``[bin]`` section."""
-    b = _Reader(path, "[bin]", table, _BIN_KEYS)
+    b = Reader(path, "[bin]", table, _BIN_KEYS)
     size = b.vector("size", 3, positive=True)
     wall = b.number("wall", 0.06)
     floor_top = b.number("floor_top", 0.05)
@@ -294,7 +237,7 @@ def _read_bin(path: Path, table: Any) -> BinSpec:
 
 def _read_target(path: Path, table: Any) -> tuple[TargetSpec, RandomizationSpec]:
     """The ``[target]`` section and its ``[target.randomize]`` table."""
-    t = _Reader(path, "[target]", table, _TARGET_KEYS)
+    t = Reader(path, "[target]", table, _TARGET_KEYS)
     d = TargetSpec()
     target = TargetSpec(
         radius=t.number("radius", d.radius),
@@ -302,7 +245,7 @@ def _read_target(path: Path, table: Any) -> tuple[TargetSpec, RandomizationSpec]
         mass=t.number("mass", d.mass, MASS_RANGE, "[kg]"),
         friction=t.number("friction", d.friction, FRICTION_RANGE, ""),
     )
-    r = _Reader(path, "[target.randomize]", t.table.get("randomize", {}), _RANDOM_KEYS)
+    r = Reader(path, "[target.randomize]", t.table.get("randomize", {}), _RANDOM_KEYS)
     dr = RandomizationSpec()
     yaw = r.range_("yaw_deg", (-180.0, 180.0), YAW_RANGE)
     lengths = (MIN_LENGTH, MAX_LENGTH)
@@ -323,7 +266,7 @@ def _read_obstacles(path: Path, raw: Any) -> tuple[ObstacleSpec, ...]:
         raise ConfigError(f"{path}: obstacles: expected [[obstacles]] tables, got {raw!r}")
     obstacles = []
     for i, table in enumerate(raw, start=1):
-        o = _Reader(path, f"[[obstacles]] #{i}", table, _OBSTACLE_KEYS)
+        o = Reader(path, f"[[obstacles]] #{i}", table, _OBSTACLE_KEYS)
         obstacles.append(
             ObstacleSpec(
                 position=tuple(o.vector("position", 3)),  # type: ignore[arg-type]
@@ -336,11 +279,11 @@ def _read_obstacles(path: Path, raw: Any) -> tuple[ObstacleSpec, ...]:
 
 def _read_robot(path: Path, table: Any) -> tuple[float, ...] | None:
     """The ``[robot]`` section: its ``ready_q`` [deg], or None when it sets none."""
-    rb = _Reader(path, "[robot]", table, _ROBOT_KEYS)
+    rb = Reader(path, "[robot]", table, _ROBOT_KEYS)
     if "ready_q" not in rb.table:
         return None
     q = rb.table["ready_q"]
-    ok = isinstance(q, list) and len(q) == 6 and all(_is_number(v) for v in q)
+    ok = isinstance(q, list) and len(q) == 6 and all(is_number(v) for v in q)
     if not ok or max(abs(v) for v in q) > 360.0:
         rb.fail("ready_q", "a list of 6 joint angles within +-360 [deg]", q)
     ready_q = tuple(float(v) for v in q)

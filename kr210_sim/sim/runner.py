@@ -39,6 +39,7 @@ from kr210_sim.score.scoring import (
     plan_failure,
 )
 from kr210_sim.sim.cell import Cell, TickLog, hold
+from kr210_sim.sim.clutter import Clutter
 from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
@@ -189,6 +190,8 @@ class Runner:
         self.keep_recordings = keep_recordings
         self.recordings: list[TickLog] = []
         self.targets = TargetPool(self.cell, self.layout)
+        #: The cell's distractors and pick list (nothing happens on a tidy shelf).
+        self.clutter = Clutter(self.model, self.layout)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -353,8 +356,12 @@ class Runner:
         """Start cycle ``index``: draw its target for ``slot``, spawn it and let it settle for
         :data:`SPAWN_SETTLE` s; the target and its index in the pool."""
         sample = sample_target(self.rng, self.config, self.layout, slot)
+        sample = self.clutter.dress_target(sample, index)  # the pick list's kind
         self.status.update(cycle=index, slot=slot, phase="spawn")
         k = self._spawn(sample)
+        self.clutter.scatter(
+            self.cell, k, sample, index, self.rng if self.config.randomize else None
+        )
         self._hold(SPAWN_SETTLE, rec, "spawn", {} if phases is None else phases, step=False)
         return sample, k
 

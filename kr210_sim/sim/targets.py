@@ -26,10 +26,19 @@ import mujoco  # isort: skip
 FloatArray = npt.NDArray[np.float64]
 
 
-def set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetSpec) -> None:
-    """Give target ``index`` the size, mass and friction of ``spec`` (model fields)."""
+def set_target_spec(
+    model: mujoco.MjModel,
+    cell: Cell,
+    index: int,
+    spec: TargetSpec,
+    rgb: tuple[float, float, float] | None = None,
+) -> None:
+    """Give target ``index`` the size, mass and friction of ``spec`` (model fields), and the
+    colour ``rgb`` of the kind it is made as (None: leave it)."""
     h = cell.handles
     g, b = int(h.target_geoms[index]), int(h.target_bodies[index])
+    if rgb is not None:
+        model.geom_rgba[g, :3] = rgb
     r, half = spec.radius, spec.length / 2.0
     model.geom_size[g, :2] = (r, half)
     model.geom_rbound[g] = math.hypot(r, half)
@@ -41,6 +50,17 @@ def set_target_spec(model: mujoco.MjModel, cell: Cell, index: int, spec: TargetS
     # Recompute the derived constants (inverse weights the constraint solver scales by) on a
     # scratch MjData, so the live state is untouched.
     mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
+def place_upright(cell: Cell, k: int, position: npt.ArrayLike, yaw: float = 0.0) -> None:
+    """Put cylinder ``k`` upright at ``position`` [m] with ``yaw`` [rad], at rest (no step
+    taken)."""
+    h, d = cell.handles, cell.data
+    a, dof = int(h.target_qpos[k]), int(h.target_dof[k])
+    d.qpos[a : a + 3] = np.asarray(position, dtype=np.float64)
+    d.qpos[a + 3 : a + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+    cell.nudge(np.arange(a, a + 3))
+    d.qvel[dof : dof + 6] = 0.0
 
 
 class TargetPool:
@@ -68,13 +88,7 @@ class TargetPool:
         return sum(in_bin(self.cell.target_pose(k)[0], self.bin) for k in self.in_play)
 
     def _place(self, k: int, position: npt.ArrayLike, yaw: float = 0.0) -> None:
-        """Put cylinder ``k`` upright at ``position`` [m], at rest (no step taken)."""
-        h, d = self.cell.handles, self.cell.data
-        a, dof = int(h.target_qpos[k]), int(h.target_dof[k])
-        d.qpos[a : a + 3] = np.asarray(position, dtype=np.float64)
-        d.qpos[a + 3 : a + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
-        self.cell.nudge(np.arange(a, a + 3))
-        d.qvel[dof : dof + 6] = 0.0
+        place_upright(self.cell, k, position, yaw)
 
     def restock(self, before_cycle: int, keep: int | None = None, why: str = "") -> Event:
         """Empty the bin and pick up every cylinder in play: all become spares again, parked.

@@ -1,0 +1,60 @@
+"""The numbers the pipeline takes from a cell: a slot's bay as a box, and the object kinds.
+
+The pipeline itself knows nothing of cell files (it takes a :class:`BayBox` and
+:class:`~kr210_sim.perception.kinds.Kind` values); these two functions read them off a cell's
+shelf and object kinds, as the MJCF builds the shelf (:mod:`kr210_sim.cell.mjcf`).
+"""
+
+from __future__ import annotations
+
+from kr210_sim.cell.sensing import TARGET_KIND, TARGET_RGB
+from kr210_sim.cell.spec import (
+    SHELF_BOARD_THICKNESS,
+    SHELF_POST_WIDTH,
+    CellConfig,
+    ShelfSpec,
+    TargetSpec,
+)
+from kr210_sim.perception.cloud import BayBox
+from kr210_sim.perception.kinds import Kind
+
+#: Thickness of the shelf's back panel [m] (the MJCF's ``shelf_back``).
+SHELF_BACK_THICKNESS = 0.02
+
+
+def bay_box(shelf: ShelfSpec, slot: int) -> BayBox:
+    """The inside of slot ``slot``'s bay: from its board's top to the underside of the board
+    (or top panel) above, between its posts, from the open front to the back panel.
+
+    Args:
+        shelf: The cell's shelf.
+        slot: The slot's number (1 = bottom row, left as the robot sees it).
+
+    Raises:
+        ValueError: When the shelf has no such slot.
+    """
+    n = shelf.rows * shelf.columns
+    if not 1 <= slot <= n:
+        raise ValueError(f"slot {slot} is not on the shelf (slots 1-{n})")
+    row = (slot - 1) // shelf.columns
+    tops = shelf.board_tops
+    ceiling = tops[row + 1] if row + 1 < len(tops) else shelf.height
+    ceiling -= SHELF_BOARD_THICKNESS
+    _, y, floor = shelf.slot_local(slot)
+    front = -shelf.depth / 2.0
+    back = shelf.depth / 2.0 - SHELF_BACK_THICKNESS
+    centre = shelf.to_world(((front + back) / 2.0, y, (floor + ceiling) / 2.0))
+    half = (
+        (back - front) / 2.0,
+        (shelf.column_pitch - SHELF_POST_WIDTH) / 2.0,
+        (ceiling - floor) / 2.0,
+    )
+    return BayBox((float(centre[0]), float(centre[1]), float(centre[2])), shelf.yaw, half)
+
+
+def cell_kinds(cell: CellConfig, target: TargetSpec | None = None) -> tuple[Kind, ...]:
+    """The kinds of a cell: its target cylinder (at ``target``'s size, the cell's by default)
+    and its ``[[objects]]`` kinds."""
+    t = target or cell.target
+    own = Kind(TARGET_KIND, "cylinder", (t.radius, t.length), TARGET_RGB)
+    return (own, *(Kind.of(k) for k in cell.objects))
