@@ -416,11 +416,15 @@ class IkSandbox:
             self.start()
         self.calls += 1
         req_w, ans_r = self._fds
+        until = self._until(limit)  # the request's writing counts: a process may stop reading
         try:
-            send(req_w, {"n": self.calls, **message})
+            send(req_w, {"n": self.calls, **message}, until)
+        except TimeoutError:
+            self._fault(
+                "timeout", f"did not read its request within {_seconds(self._limit(limit))}"
+            )
         except OSError:
             self._died("before a call", None)
-        until = self._until(limit)
         while True:
             try:
                 got = receive(ans_r, until)

@@ -1,10 +1,10 @@
 """The pipe between the grader's side and a user's IK process: length-prefixed JSON frames.
 
 A frame is a 4-byte big-endian length and that many bytes of JSON holding one object. Both sides
-speak it (:mod:`kr210_sim.sandbox.ik_sandbox` and :mod:`kr210_sim.sandbox.ik_child`), but only the
-reading side of the user's answers is on guard: the user's process may write anything to its
-end of the pipe, so :func:`receive` bounds a frame's size (:data:`MAX_FRAME`) and the time it may
-take, and tells a frame that is too big (:class:`Oversized`) from one that is not JSON (None).
+speak it (:mod:`kr210_sim.sandbox.ik_sandbox` and :mod:`kr210_sim.sandbox.ik_child`); the grader's
+side is on guard both ways. The user's process may stop reading its requests, so :func:`send`
+takes a deadline; it may write anything to its end of the pipe, so :func:`receive` bounds a
+frame's size (:data:`MAX_FRAME`) and the time it may take, and tells a frame that is too big (:class:`Oversized`) from one that is not JSON (None).
 :func:`answer_of` reads an answer's message back into the answer (numbers, None, the exception
 the user's code raised, or an unusable answer that says what it was: :func:`refusal`).
 """
@@ -42,12 +42,38 @@ class Oversized:
     size: int
 
 
-def send(fd: int, message: dict[str, Any]) -> None:
-    """Write ``message`` as one frame to ``fd`` (blocking until it is all written)."""
+def send(fd: int, message: dict[str, Any], deadline: float | None = None) -> None:
+    """Write ``message`` as one frame to ``fd``.
+
+    The reader may be the user's process, which can shrink its pipe to one page and stop
+    reading: with a ``deadline`` (``time.monotonic()``) the write waits for room only until
+    then, without ever blocking in ``os.write``, and raises TimeoutError past it (None: block
+    until it is all written, for the user's side, which writes to the grader).
+
+    Raises:
+        TimeoutError: The frame was not all written before ``deadline``.
+        OSError: The pipe is closed (the reader is gone).
+    """
     data = json.dumps(message).encode()
     view = memoryview(_HEADER.pack(len(data)) + data)
-    while view:
-        view = view[os.write(fd, view) :]
+    if deadline is None:
+        while view:
+            view = view[os.write(fd, view) :]
+        return
+    blocking = os.get_blocking(fd)
+    os.set_blocking(fd, False)
+    try:
+        while view:
+            try:
+                view = view[os.write(fd, view) :]
+                continue
+            except BlockingIOError:
+                pass
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([], [fd], [], left)[1]:
+                raise TimeoutError
+    finally:
+        os.set_blocking(fd, blocking)
 
 
 def read_exact(fd: int, n: int, deadline: float | None) -> bytes | None:

@@ -8,7 +8,10 @@ and escapes go through, fail with ``EPERM``.
 kernel's keyrings; eBPF, perf events, userfaultfd and io_uring (much of the kernel's attack
 surface of recent years); mounting, namespaces and file handles; kernel modules, kexec,
 reboot and swap; the clock, the host name and the kernel's log; and a few old calls no program
-of today makes. Everything else is allowed: Python, NumPy, threads, ``fork`` and files work as
+of today makes. Sockets are refused but for the families of :data:`SOCKET_FAMILIES` (Unix, IPv4
+and IPv6, the last two on the jail's own loopback): netlink, vsock, packet, the kernel's crypto
+and the rest fail with ``EAFNOSUPPORT``, as on a kernel built without them. Everything else is
+allowed: Python, NumPy, threads, ``fork`` and files work as
 without it.
 
 The numbers are those of the kernel's ``asm/unistd_64.h`` (x86_64) and
@@ -32,7 +35,13 @@ _LD_W_ABS = 0x20  # BPF_LD | BPF_W | BPF_ABS
 _JEQ_K = 0x15  # BPF_JMP | BPF_JEQ | BPF_K
 _JGE_K = 0x35  # BPF_JMP | BPF_JGE | BPF_K
 _RET_K = 0x06  # BPF_RET | BPF_K
-_NR, _ARCH = 0, 4  # offsets in struct seccomp_data
+_NR, _ARCH, _ARG0 = 0, 4, 16  # offsets in struct seccomp_data (args[0]'s low word)
+
+#: The calls whose first argument is a socket family (x86_64, aarch64).
+SOCKET_CALLS: dict[str, tuple[int, int]] = {"socket": (41, 198), "socketpair": (53, 199)}
+#: The socket families the jail allows: AF_UNIX, AF_INET, AF_INET6 (the network namespace
+#: holds only loopback). Anything else is refused with EAFNOSUPPORT.
+SOCKET_FAMILIES = (1, 2, 10)
 
 #: The refused calls and their numbers per machine (x86_64, aarch64; None: it has no such call).
 DENIED: dict[str, tuple[int | None, int | None]] = {
@@ -118,16 +127,30 @@ def program(arch: str) -> bytes:
     if arch not in AUDIT_ARCH:
         raise ValueError(f"no seccomp filter for {arch!r}")
     denied = numbers(arch)
-    deny = _RET_ERRNO | errno.EPERM
-    ops = [_op(_LD_W_ABS, _ARCH)]
-    checks = [_op(_JEQ_K, nr) for nr in denied]  # jump targets filled in below
-    head = 3 if arch == "x86_64" else 2  # load arch, check it, load nr (+ x32 check)
-    ops.append(_op(_JEQ_K, AUDIT_ARCH[arch], 0, len(checks) + head))  # another ABI: refused
-    ops.append(_op(_LD_W_ABS, _NR))
+    column = 0 if arch == "x86_64" else 1
+    sockets = sorted(pair[column] for pair in SOCKET_CALLS.values())
+    allow, deny = _op(_RET_K, _RET_ALLOW), _op(_RET_K, _RET_ERRNO | errno.EPERM)
+    no_family = _op(_RET_K, _RET_ERRNO | errno.EAFNOSUPPORT)
+    # Laid out as: [head] [a check per refused call] [a check per socket call] ALLOW
+    # [load the family] [a check per allowed family] EAFNOSUPPORT ALLOW DENY; every jump is
+    # forward, counted from the instruction after it.
+    head = 4 if arch == "x86_64" else 3
+    n_deny, n_sock, n_fam = len(denied), len(sockets), len(SOCKET_FAMILIES)
+    family_at = head + n_deny + n_sock + 1  # the load of args[0]
+    allow_at = family_at + 1 + n_fam + 1
+    deny_at = allow_at + 1
+    ops = [_op(_LD_W_ABS, _ARCH), _op(_JEQ_K, AUDIT_ARCH[arch], 0, deny_at - 2)]
+    ops.append(_op(_LD_W_ABS, _NR))  # another ABI above: refused
     if arch == "x86_64":
-        ops.append(_op(_JGE_K, X32_SYSCALL_BIT, len(checks) + 1, 0))
-    for i, nr in enumerate(denied):
-        ops.append(_op(_JEQ_K, nr, len(checks) - i, 0))  # to the refusal after ALLOW
-    ops.append(_op(_RET_K, _RET_ALLOW))
-    ops.append(_op(_RET_K, deny))
+        ops.append(_op(_JGE_K, X32_SYSCALL_BIT, deny_at - 4, 0))
+    for nr in denied:
+        ops.append(_op(_JEQ_K, nr, deny_at - len(ops) - 1, 0))
+    for nr in sockets:
+        ops.append(_op(_JEQ_K, nr, family_at - len(ops) - 1, 0))
+    ops.append(allow)
+    ops.append(_op(_LD_W_ABS, _ARG0))
+    for family in SOCKET_FAMILIES:
+        ops.append(_op(_JEQ_K, family, allow_at - len(ops) - 1, 0))
+    ops += [no_family, allow, deny]
+    assert len(ops) == deny_at + 1
     return b"".join(ops)

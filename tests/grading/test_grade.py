@@ -495,12 +495,12 @@ def test_under_the_python_api_a_second_ctrl_c_keeps_the_report(tmp_path: Path) -
 
 @pytest.mark.slow
 def test_a_signal_during_start_up_gives_a_report_of_no_students(tmp_path: Path) -> None:
-    from test_interrupts_signals import _held_at  # a start-up held at one import
+    from held_start import held_at  # a start-up held at one import
 
     report = tmp_path / "grade.json"
     report.write_text('{"an earlier grade": true}')  # must not be taken for this one's
     args = ["grade", str(EXAMPLE), "--cases", "0", "--cycles", "1", "--report", str(report)]
-    proc, mark = _held_at("kr210_sim.grading.grade", args, tmp_path)
+    proc, mark = held_at("kr210_sim.grading.grade", args, tmp_path)
     proc.send_signal(signal.SIGTERM)
     time.sleep(0.005)
     proc.send_signal(signal.SIGTERM)

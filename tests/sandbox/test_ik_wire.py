@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import struct
 import threading
@@ -76,3 +77,54 @@ def test_short_keeps_short_texts_and_cuts_long_ones_with_a_count() -> None:
     cut = short("y" * 10_000_000)
     assert cut == "y" * MAX_TEXT + f" [... {10_000_000 - MAX_TEXT:,} more characters]"
     assert short("z" * 50, limit=10) == "z" * 10 + " [... 40 more characters]"
+
+
+def test_a_reader_that_stops_reading_cannot_hold_the_sender_past_its_deadline() -> None:
+    """Red team 4, finding 9: a ROS server shrank its request pipe to one page and stopped
+    reading; the grader blocked in ``send()`` for 160 s instead of ``--timeout 10``. With a
+    deadline the write waits for room only until then, and the fd is left as it was."""
+    import fcntl
+
+    r, w = os.pipe()
+    try:
+        fcntl.fcntl(w, 1031, 4096)  # F_SETPIPE_SZ: one page, as the server did
+        big = {"poses": ["x" * 100] * 1000}  # about 100 kB: far more than the pipe holds
+        done: list[BaseException | None] = []
+
+        def write() -> None:
+            try:
+                send(w, big, time.monotonic() + 0.3)
+                done.append(None)
+            except BaseException as exc:
+                done.append(exc)
+
+        writer = threading.Thread(target=write, daemon=True)
+        writer.start()
+        writer.join(timeout=30.0)  # without the deadline it would block for ever here
+        assert not writer.is_alive(), "send() blocked past its deadline"
+        assert len(done) == 1 and isinstance(done[0], TimeoutError), done
+        assert os.get_blocking(w)
+        # a frame that fits goes through with a deadline, and a reader reads it whole
+        os.read(r, 1 << 20)
+        small = {"n": 2, "T": [0.5] * 16}
+        send(w, small, time.monotonic() + 5.0)
+        assert os.read(r, 4) == struct.pack("!I", len(json.dumps(small).encode()))
+    finally:
+        os.close(r)
+        os.close(w)
+
+
+def test_a_slow_reader_gets_the_whole_frame_within_the_deadline() -> None:
+    """A reader that takes a large frame in small sips, in time, gets every byte in order."""
+    r, w = os.pipe()
+    message = {"poses": [[float(i)] * 16 for i in range(2000)]}  # about 300 kB
+    got: list[object] = []
+    reader = threading.Thread(target=lambda: got.append(receive(r, time.monotonic() + 30.0)))
+    reader.start()
+    try:
+        send(w, message, time.monotonic() + 30.0)
+        reader.join(timeout=30.0)
+        assert got == [message]
+    finally:
+        os.close(r)
+        os.close(w)

@@ -12,12 +12,12 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from pathlib import Path
 
 import imageio.v2 as imageio
 import pytest
+from held_start import held_at as _held_at
 
 pytestmark = pytest.mark.slow
 
@@ -255,48 +255,6 @@ def test_further_signals_while_the_report_is_written_lose_nothing(
 
 #: A sitecustomize that holds the import of one module (``KR210_TEST_HOLD``) until a file
 #: appears: the test signals the process at that moment of its start-up.
-HOLD_AN_IMPORT = """
-    import os, sys, time
-
-    class _Hold:
-        def find_spec(self, name, path=None, target=None):
-            if name == os.environ["KR210_TEST_HOLD"]:
-                sys.meta_path.remove(self)
-                mark = os.environ["KR210_TEST_MARK"]
-                open(mark, "w").close()
-                deadline = time.monotonic() + 120
-                while not os.path.exists(mark + ".go") and time.monotonic() < deadline:
-                    time.sleep(0.005)
-            return None
-
-    sys.meta_path.insert(0, _Hold())
-"""
-
-
-def _held_at(module: str, args: list[str], tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
-    """Start ``python -m kr210_sim ARGS`` and wait until its start-up imports ``module``."""
-    site = tmp_path / "site"
-    site.mkdir()
-    (site / "sitecustomize.py").write_text(textwrap.dedent(HOLD_AN_IMPORT))
-    mark = tmp_path / "at-the-import"
-    env = {**os.environ, "PYTHONPATH": str(site), "KR210_TEST_HOLD": module}
-    env["KR210_TEST_MARK"] = str(mark)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "kr210_sim", *args],
-        cwd=tmp_path,
-        env=env,
-        text=True,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 120
-    while not mark.exists():
-        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
-        time.sleep(0.005)
-    return proc, mark
-
-
 # Moments of run's start-up: the package's import (mujoco), the parsing of the arguments (the
 # type of --cycles), the command's imports, and the job's (after the IK is loaded).
 START_UP = {
