@@ -3,7 +3,7 @@
 Run: ``python benchmarks/grade.py [--calls N] [--cases N] [--cycles N]``. Prints figures only.
 
 * Per call: ``examples/ik_dh.py``'s ``solve`` called in this process against the same function
-  in an :class:`~kr210_sim.robot.ik_sandbox.IkSandbox` (a round trip over a pipe), on the same
+  in an :class:`~kr210_sim.sandbox.ik_sandbox.IkSandbox` (a round trip over a pipe), on the same
   poses, in one sitting: compare the ratio, not the absolute times across days.
 * Start: the sandbox's process started and the module imported (before the first call).
 * One student: ``grade examples/ik_dh.py`` (ik-check of the fixed poses and ``--cases`` random
@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from kr210_sim.robot import kinematics
-from kr210_sim.robot.ik_sandbox import IkSandbox
-from kr210_sim.robot.user_ik import load_ik
+from kr210_sim.sandbox.ik_sandbox import IkSandbox
+from kr210_sim.sandbox.user_ik import load_ik
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 

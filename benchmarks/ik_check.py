@@ -13,9 +13,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from kr210_sim.eval.ikcheck import check, fixed_cases, random_cases, summarise
+from kr210_sim.grading.ikcheck import check, fixed_cases, random_cases, summarise
 from kr210_sim.robot.kinematics import committed
-from kr210_sim.robot.user_ik import load_ik
+from kr210_sim.sandbox.user_ik import load_ik
 from kr210_sim.sim.runner import RunConfig, Runner
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"

@@ -5,8 +5,8 @@ Run: ``python benchmarks/jail_cost.py [--starts N] [--calls N] [--cases N] [--cy
 the differences, not the absolute times across days (the 2-core machine is shared).
 
 * Start-up: ``examples/ik_dh.py``'s sandbox started until its module is imported and it says
-  ready, in the jail (:class:`~kr210_sim.robot.jail.Jail`: bubblewrap, the namespaces, the
-  control group, the scratch tmpfs) and without (:class:`~kr210_sim.robot.confine.Unconfined`):
+  ready, in the jail (:class:`~kr210_sim.sandbox.jail.Jail`: bubblewrap, the namespaces, the
+  control group, the scratch tmpfs) and without (:class:`~kr210_sim.sandbox.confine.Unconfined`):
   the wall time, the CPU time of a start and an end (every process counted: the jail's are read
   from ``/proc`` before they are killed), and what ending it takes (count, kill, wait). Target:
   at most 0.5 s more per student.
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from kr210_sim.robot import kinematics
-from kr210_sim.robot.confine import Confinement, Unconfined
-from kr210_sim.robot.ik_sandbox import IkSandbox
-from kr210_sim.robot.jail import Jail
+from kr210_sim.sandbox.confine import Confinement, Unconfined
+from kr210_sim.sandbox.ik_sandbox import IkSandbox
+from kr210_sim.sandbox.jail import Jail
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ik_dh.py"
 SPEC = f"{EXAMPLE}:solve"

@@ -15,6 +15,10 @@ front, so ``import kr210_sim`` stays light: ``kr210_sim.run(...)``, ``kr210_sim.
 ``kr210_sim.ik_check(...)``, ``kr210_sim.grade(...)`` and the report types load it on first use
 (the evaluation's machinery is the module :mod:`kr210_sim.eval.evaluate`). The Gymnasium
 environment is registered by ``import kr210_sim.envs``.
+
+The rooms, in the order data flows through them (each imports only rooms before it): errors,
+util, robot, cell and exercise, sandbox, perception, plan and score, sim, media and sensors, eval,
+grading, view and envs, jobs, results, api, commands, cli.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 from kr210_sim.util import gl as _gl  # noqa: F401  # isort: skip (first: MUJOCO_GL, mujoco)
+from kr210_sim import _moved
 from kr210_sim.errors import (
     ConfigError,
     Kr210SimError,
@@ -31,6 +36,8 @@ from kr210_sim.errors import (
     UnreachablePoseError,
 )
 from kr210_sim.util.versions import package_version
+
+_moved.install()  # the module paths that moved in 0.2.0 keep working until 0.3.0, with a warning
 
 #: The package version (from the installed metadata: pyproject.toml is the one place it is set).
 __version__ = package_version()

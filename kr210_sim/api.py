@@ -47,7 +47,7 @@ from kr210_sim.results import (
 
 if TYPE_CHECKING:
     from kr210_sim.media.video import VideoSettings
-    from kr210_sim.robot.user_ik import UserIk
+    from kr210_sim.sandbox.user_ik import UserIk
 
 __all__ = [
     "EvalReport",
@@ -67,7 +67,7 @@ log = logging.getLogger(__name__)
 
 
 def as_user_ik(ik: str | Callable[..., Any] | UserIk | None) -> UserIk | None:
-    """The :class:`~kr210_sim.robot.user_ik.UserIk` for an ``ik=`` argument.
+    """The :class:`~kr210_sim.sandbox.user_ik.UserIk` for an ``ik=`` argument.
 
     Args:
         ik: ``"package.module:function"`` or ``"path/to/file.py:function"`` (loaded as
@@ -78,7 +78,7 @@ def as_user_ik(ik: str | Callable[..., Any] | UserIk | None) -> UserIk | None:
         IkSpecError: When the SPEC names nothing loadable, or ``ik`` is neither a string nor a
             callable.
     """
-    from kr210_sim.robot.user_ik import UserIk, ik_from_callable, load_ik
+    from kr210_sim.sandbox.user_ik import UserIk, ik_from_callable, load_ik
 
     if ik is None or isinstance(ik, UserIk):
         return ik
@@ -137,7 +137,7 @@ def _worker_ik(ik: object, in_process: bool) -> str | None:
             function of ``__main__`` with more than one worker or on Ray).
     """
     from kr210_sim.errors import IkSpecError
-    from kr210_sim.robot.user_ik import UserIk, ik_from_callable, load_ik
+    from kr210_sim.sandbox.user_ik import UserIk, ik_from_callable, load_ik
 
     if ik is None or isinstance(ik, str):
         return ik
@@ -374,7 +374,7 @@ def ik_check(
         RunInterrupted: Ctrl-C or a termination signal stopped the check; the report of the
             cases tried (``interrupted``: the signal's name) was written and is its ``report``.
     """
-    from kr210_sim.eval.ikcheck import run_check
+    from kr210_sim.grading.ikcheck import run_check
 
     if ik is None:
         raise ConfigError("ik_check needs an IK: a SPEC string or a callable solve(T, q_ref)")
@@ -437,8 +437,8 @@ def grade(
     """
     import os
 
-    from kr210_sim.eval.grade import GradeSettings, find_students
-    from kr210_sim.eval.grade import grade as grade_class
+    from kr210_sim.grading.grade import GradeSettings, find_students
+    from kr210_sim.grading.grade import grade as grade_class
 
     if isinstance(submissions, str | Path):
         submissions = [submissions]

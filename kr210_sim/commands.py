@@ -39,7 +39,7 @@ def _no_jail(args: argparse.Namespace) -> None:
         raise ConfigError(
             "--no-jail needs --ik-timeout S: without it your IK runs in this process, unjailed"
         )
-    from kr210_sim.robot.jail import JAIL_ENV, unjailed_warning
+    from kr210_sim.sandbox.jail import JAIL_ENV, unjailed_warning
 
     os.environ[JAIL_ENV] = "0"
     sys.stderr.write(unjailed_warning("your IK's"))
@@ -54,7 +54,7 @@ def _load_ik(args: argparse.Namespace) -> Any:
         if timeout is not None:
             raise ConfigError("--ik-timeout needs --ik SPEC")
         return None
-    from kr210_sim.robot.ik_sandbox import load_user_ik
+    from kr210_sim.sandbox.ik_sandbox import load_user_ik
 
     _no_jail(args)
     return load_user_ik(spec, timeout)

@@ -41,7 +41,7 @@ from kr210_sim.media.recording import (
 )
 from kr210_sim.media.render_pool import RenderPool, capped_workers, default_workers
 from kr210_sim.media.video import VideoSettings
-from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.sandbox.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import run_session, runner_report, unstarted_report
@@ -385,7 +385,7 @@ def evaluate_job(
     from kr210_sim.eval.evaluate import evaluate
 
     if config.ik is not None:  # with --ik-timeout, in a process of its own
-        from kr210_sim.robot.ik_sandbox import load_user_ik
+        from kr210_sim.sandbox.ik_sandbox import load_user_ik
 
         load_user_ik(config.ik, config.ik_timeout)
     if config.backend == "ray":

@@ -13,7 +13,7 @@ import pytest
 
 import kr210_sim  # noqa: F401
 from kr210_sim.cell.toml import PUBLISHED_CELL
-from kr210_sim.robot.bwrap import JailUnavailable, find_bwrap
+from kr210_sim.sandbox.bwrap import JailUnavailable, find_bwrap
 
 #: The ready pose of :func:`ready_cell` [deg].
 READY_Q_DEG = (40, -15, 20, 0, -5, 0)

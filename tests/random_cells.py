@@ -12,7 +12,7 @@ a slot agrees when check serves it and each of its cycles succeeds with no robot
 or check refuses it and none of its cycles does (a cell ``run`` refuses runs none).
 
 Used by ``benchmarks/cell_sweep.py`` (hundreds of cells) and by one test in
-``tests/test_cellcheck.py`` (a few).
+``tests/plan/test_cellcheck.py`` (a few).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 #: What a wheel is built from (everything the package ships).
-SOURCES = ("pyproject.toml", "README.md", "LICENSE", "kr210_sim", "assets", "scenes")
+SOURCES = ("pyproject.toml", "setup.py", "README.md", "LICENSE", "kr210_sim", "assets", "scenes")
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -69,9 +69,9 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/assets/kr210/kr210.urdf",
         "kr210_sim/assets/kr210/meshes/link_1.stl",
         "kr210_sim/scenes/kr210_cell.xml",
-        "kr210_sim/robot/ros/shims/rospy/__init__.py",
-        "kr210_sim/robot/ros/shims/tf/transformations.py",
-        "kr210_sim/robot/ros/shims/kuka_arm/srv/__init__.py",
+        "kr210_sim/exercise/shims/rospy/__init__.py",
+        "kr210_sim/exercise/shims/tf/transformations.py",
+        "kr210_sim/exercise/shims/kuka_arm/srv/__init__.py",
     } <= names
     assert any(n.startswith("kr210_sim/robot/_ik_native.") and n.endswith(".so") for n in names)
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
@@ -91,7 +91,7 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     flag, path = _run([str(python), "-c", native], elsewhere, env).split()
     assert flag == "True" and path.startswith(str(site / "kr210_sim" / "robot"))  # compiled IK
     shims = (  # the ROS modules an original-form IK_server.py imports, from the installed copy
-        "import sys; from kr210_sim.robot.ros.server import SHIMS; sys.path.insert(0, str(SHIMS)); "
+        "import sys; from kr210_sim.exercise.server import SHIMS; sys.path.insert(0, str(SHIMS)); "
         "import rospy, tf.transformations as t, kuka_arm.srv; print(t.__file__)"
     )
     assert _run([str(python), "-c", shims], elsewhere, env).startswith(str(site / "kr210_sim"))

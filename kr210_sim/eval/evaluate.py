@@ -265,7 +265,7 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
 
     ik: dict[str, Any] = {}
     if config.ik is not None:
-        from kr210_sim.robot.user_ik import ik_identity
+        from kr210_sim.sandbox.user_ik import ik_identity
 
         ik = {"ik": ik_identity(config.ik)}
     return {
@@ -285,7 +285,7 @@ def _check_outputs(config: EvalConfig, report: Path) -> None:
     Raises:
         ConfigError: Naming the clash.
     """
-    from kr210_sim.robot.user_ik import spec_file
+    from kr210_sim.sandbox.user_ik import spec_file
     from kr210_sim.util.outputs import check_distinct, check_writable, is_stream
     from kr210_sim.util.paths import SCENE_PATH, URDF_PATH
 

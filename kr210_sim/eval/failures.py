@@ -25,7 +25,7 @@ from kr210_sim.media.recording import (
 import mujoco  # isort: skip
 
 if TYPE_CHECKING:
-    from kr210_sim.robot.user_ik import UserIk
+    from kr210_sim.sandbox.user_ik import UserIk
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,7 +66,7 @@ def record_episode(
         scene: MJCF scene of the evaluation (default: the committed scene).
         rate: Frames per simulated second [Hz].
         model: A pristine copy of the scene's model, to skip loading it again (it is copied).
-        ik: The user's IK the evaluation planned with (:func:`kr210_sim.robot.user_ik.load_ik`),
+        ik: The user's IK the evaluation planned with (:func:`kr210_sim.sandbox.user_ik.load_ik`),
             or None for ours.
 
     Returns:
@@ -134,7 +134,7 @@ def record_failures(
     pristine = model_at(scene)
     user_ik = None
     if ik is not None:
-        from kr210_sim.robot.ik_sandbox import load_user_ik
+        from kr210_sim.sandbox.ik_sandbox import load_user_ik
 
         user_ik = load_user_ik(ik, ik_timeout)
     return [

@@ -70,9 +70,9 @@ from kr210_sim.plan.trajectory import (
     plan_ptp,
 )
 from kr210_sim.robot.description import RobotDescription
-from kr210_sim.robot.ik_guard import CheckedIk
 from kr210_sim.robot.kinematics import Kinematics
-from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.sandbox.ik_guard import CheckedIk
+from kr210_sim.sandbox.user_ik import UserIk
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -85,7 +85,7 @@ class Planner:
             kinematics (:attr:`kinematics`).
         motion: Motion settings.
         ik: A user's IK function to plan with instead of :meth:`Kinematics.nearest`; every
-            answer is checked (:class:`~kr210_sim.robot.ik_guard.CheckedIk`) and a bad one raises
+            answer is checked (:class:`~kr210_sim.sandbox.ik_guard.CheckedIk`) and a bad one raises
             :class:`~kr210_sim.errors.IkFailedError`.
         checker: Checks every move against the cell (:mod:`kr210_sim.plan.collide`); a joint-space
             move that collides is planned again by OMPL (:mod:`kr210_sim.plan.routing`), and a

@@ -354,7 +354,7 @@ def line_poses(T_start: npt.ArrayLike, T_goal: npt.ArrayLike, step: float) -> li
     """The poses (4x4) :func:`plan_cartesian_line` asks its IK for, in order: the line from
     ``T_start`` to ``T_goal`` sampled every ``step`` [m] (rotation counted as 0.25 m per rad),
     ``T_start`` itself left out; none for a line of no length. A batch-taking IK is asked for
-    them at once (:meth:`~kr210_sim.robot.ik_guard.CheckedIk.prefetch`)."""
+    them at once (:meth:`~kr210_sim.sandbox.ik_guard.CheckedIk.prefetch`)."""
     Ts = np.asarray(T_start, dtype=np.float64)
     Tg = np.asarray(T_goal, dtype=np.float64)
     dp = Tg[:3, 3] - Ts[:3, 3]

@@ -26,7 +26,7 @@ from kr210_sim.plan.landing import landing_blockers, spots_with_room, usable_dro
 from kr210_sim.plan.planner import Planner
 from kr210_sim.robot.description import RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
-from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.sandbox.user_ik import UserIk
 from kr210_sim.score.metrics import gripper_tracking_error_mm
 from kr210_sim.score.result import CycleResult, Event, TargetSample
 from kr210_sim.score.scoring import (

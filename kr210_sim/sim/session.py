@@ -25,7 +25,7 @@ import numpy as np
 
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.robot.description import RobotDescription
-from kr210_sim.robot.user_ik import UserIk
+from kr210_sim.sandbox.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.sim.cell import Cell
 from kr210_sim.sim.runner import RunConfig, Runner

@@ -1,7 +1,0 @@
-"""rospy, as an IK server uses it: :mod:`kr210_sim.robot.ros.node`."""
-
-from kr210_sim.robot.ros.messages import Duration, Time
-from kr210_sim.robot.ros.node import *  # noqa: F403
-from kr210_sim.robot.ros.node import __all__ as _node_all
-
-__all__ = [*_node_all, "Duration", "Time"]

@@ -1,9 +1,0 @@
-"""sensor_msgs.msg: its messages (:mod:`kr210_sim.robot.ros.messages`)."""
-
-from kr210_sim.robot.ros.messages import (
-    JointState,
-)
-
-__all__ = [
-    "JointState",
-]

@@ -1,0 +1,184 @@
+"""One student's grading (grading/student.py): the student's own time, the sandbox it gets, and
+the film-it command, which must run as printed."""
+
+from __future__ import annotations
+
+import os
+import shlex
+import subprocess
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kr210_sim.cli import build_parser
+from kr210_sim.grading.roster import find_students
+from kr210_sim.grading.student import (
+    StudentClock,
+    StudentJob,
+    _verdict,
+    one_branch,
+    replay_command,
+    shell_word,
+    student_sandbox,
+    video_name,
+)
+from kr210_sim.robot import kinematics
+from kr210_sim.sandbox.ik_sandbox import SandboxStop
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "ik_dh.py"
+Q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+
+
+def _job(tmp_path: Path, spec: str, name: str = "amy", timeout: float = 60.0) -> StudentJob:
+    return StudentJob(
+        name=name,
+        spec=spec,
+        problem="",
+        cases=0,
+        cycles=1,
+        seed=3,
+        timeout=timeout,
+        ik_timeout=60.0,
+        memory_mb=1024,
+        min_success=0.8,
+        scratch=str(tmp_path / "scratch"),
+    )
+
+
+def test_our_time_between_calls_does_not_count_against_the_student(tmp_path: Path) -> None:
+    """``--timeout`` was a wall-clock deadline over the whole student: our simulation used it
+    up and a correct student was ``timeout``."""
+    sandbox = student_sandbox(_job(tmp_path, f"{EXAMPLE}:solve"))
+    clock = StudentClock(sandbox, budget=60.0)
+    try:
+        clock.start()
+        assert clock.calls == 0 and clock.import_time > 0
+        clock.budget = clock.used + 1.0  # one more second of the student's own time
+        T = kinematics.forward(Q)
+        for _ in range(3):
+            time.sleep(0.6)  # our own work between its calls: 1.8 s in all
+            np.testing.assert_allclose(clock(T, Q), Q, atol=1e-9)
+        assert clock.calls == 3 and not clock.spent
+        assert clock.call_time < 1.0  # three answers, not the 1.8 s between them
+    finally:
+        sandbox.close()
+
+
+def test_the_call_that_uses_the_budget_up_is_cut_there(tmp_path: Path) -> None:
+    path = tmp_path / "slow.py"
+    path.write_text(
+        textwrap.dedent(
+            """
+            import time
+
+            def solve(T, q):
+                time.sleep(600)
+            """
+        )
+    )
+    sandbox = student_sandbox(_job(tmp_path, f"{path}:solve"))  # 60 s per call
+    clock = StudentClock(sandbox, budget=60.0)
+    try:
+        clock.start()
+        clock.budget = clock.used + 0.5
+        with pytest.raises(SandboxStop) as info:
+            clock(kinematics.forward(Q), Q)
+        assert info.value.verdict == "timeout" and clock.spent
+        assert clock.spent_detail().startswith(
+            f"its code took longer than --timeout ({clock.budget:g} s) in all: "
+        )
+        assert clock.spent_detail().endswith("s in 1 calls")
+    finally:
+        sandbox.close()
+
+
+def test_the_import_may_take_the_whole_budget(tmp_path: Path) -> None:
+    """The import had a hidden limit of its own (30 s), whatever --timeout said."""
+    box = student_sandbox(_job(tmp_path, f"{EXAMPLE}:solve", timeout=300.0))
+    assert box.limits.load_timeout == 300.0
+    assert box.limits.call_timeout == 60.0 and box.limits.memory_mb == 1024 and box.stop
+    box.close()
+    clock = StudentClock(box, budget=300.0)
+    assert clock.spent_detail() == "importing it took longer than --timeout (300 s)"
+
+
+def _parsed(command: str) -> object:
+    argv = shlex.split(command)
+    assert argv[:3] == ["python", "-m", "kr210_sim"]
+    return build_parser().parse_args(argv[3:])
+
+
+def test_the_film_it_command_runs_as_printed_for_a_file_named_like_an_option(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "--x.py").write_text("")
+    (student,) = find_students(["--x.py"])
+    command = replay_command(_job(tmp_path, student.spec, student.name), 4)
+    args = _parsed(command)
+    assert args.command == "run" and args.ik == "./--x.py:solve"  # type: ignore[attr-defined]
+    assert (args.cycles, args.seed, args.ik_timeout) == (4, 3, 60.0)  # type: ignore[attr-defined]
+    assert str(args.video) == "videos/--x_cycle4.mp4"  # type: ignore[attr-defined]
+    assert Path(args.ik.rpartition(":")[0]).is_file()  # type: ignore[attr-defined]
+
+
+def test_the_film_it_command_names_the_same_file_whatever_its_bytes(tmp_path: Path) -> None:
+    raw = b'it\'s \xff $(touch pwned) "q" \\ \n.py:solve'
+    word = shell_word(os.fsdecode(raw))
+    assert word.isascii() and word.isprintable()
+    out = subprocess.run(
+        ["bash", "-c", f"printf %s {word}"], cwd=tmp_path, capture_output=True, check=True
+    )
+    assert out.stdout == raw and not (tmp_path / "pwned").exists()
+    assert shell_word("plain/ik.py:solve") == "plain/ik.py:solve"
+    assert shell_word("a b.py:solve") == "'a b.py:solve'"
+    long = "a" * 250
+    assert video_name(long).startswith("a" * 55 + "_") and len(video_name(long)) == 64
+    assert video_name("<script> x") == "_script__x" and video_name("no_offset") == "no_offset"
+    command = replay_command(_job(tmp_path, f"c/{long}.py:solve", long), 1)
+    assert len(Path(str(_parsed(command).video)).name) < 255  # type: ignore[attr-defined]
+
+
+def _case(group: str, passed: bool, within: bool, pos: float, ori: float) -> dict[str, object]:
+    return {
+        "group": group,
+        "passed": passed,
+        "q": [0.0] * 6,
+        "error": None,
+        "within_limits": within,
+        "position_error_m": pos,
+        "orientation_error_rad": ori,
+    }
+
+
+def test_a_ros_server_is_not_failed_for_being_one_branch_outside_the_exercise_s_cases(
+    tmp_path: Path,
+) -> None:
+    """The exercise's IK gives one branch: on a random or limit pose that only another branch
+    reaches inside the limits, its answer reaches the pose outside them. A ROS-form server is
+    not failed for that (it is told and counted); an answer that misses its pose, or any miss on
+    IK_debug's or the cell's poses, still fails it; our form (given q_ref, asked for the nearest
+    of all branches) is failed for every case."""
+    assert one_branch(_case("random", False, False, 1e-12, 1e-12))
+    assert one_branch(_case("limits", False, False, 9e-4, 9e-4))
+    assert not one_branch(_case("cell", False, False, 1e-12, 1e-12))  # the exercise's own
+    assert not one_branch(_case("ik_debug", False, False, 1e-12, 1e-12))
+    assert not one_branch(_case("random", False, False, 1e-12, 0.0949))  # misses the pose
+    assert not one_branch(_case("random", False, True, 1e-12, 1e-12))  # another problem
+    assert not one_branch(_case("random", True, True, 0.0, 0.0))
+    job = _job(tmp_path, "x.py:solve")
+    run = {"successes": 1, "cycles_run": 1}
+    ik = {"cases": 100, "cases_total": 100, "passed": 96, "one_branch": 4}
+    verdict, detail = _verdict(job, ik, run, ros=True)
+    assert verdict == "pass" and detail == (
+        "ik-check 96/100 cases (4 more answers reach their pose outside the joint limits, where "
+        "only another branch reaches it inside them: one branch, as the exercise's IK, not "
+        "failed), run 1/1 cycles (pass bar 1)"
+    )
+    assert _verdict(job, ik, run)[0] == "fail"  # our form: every case counts
+    assert _verdict(job, {**ik, "one_branch": 3}, run, ros=True)[0] == "fail"  # one more miss
+    assert _verdict(job, ik, {"successes": 0, "cycles_run": 1}, ros=True)[0] == "fail"
