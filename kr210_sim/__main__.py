@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 
+import kr210_sim.shadowed  # noqa: F401  (first: exits in one line when kr210_sim is shadowed)
 from kr210_sim.util.interrupts import hold_start_up
 
 hold_start_up()

@@ -1,11 +1,10 @@
 """Command-line interface: ``python -m kr210_sim <command>``.
 
 Commands: ``run`` (the main job), ``replay`` (render a recording of a run to MP4), ``view`` (the
-same run live in MuJoCo Studio), ``evaluate``, ``ik-check``, ``check``, ``demos``,
-``build-meshes``, ``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run below its pass
-bar (or an IK failing a case), 2 a usage error or a failure with a one-line
-message, 130 interrupted by Ctrl-C, 143 by SIGTERM, 129 by SIGHUP (the report of the cycles
-completed so far is still written).
+same run live in MuJoCo Studio), ``evaluate``, ``ik-check``, ``check``, ``demos``, ``build-meshes``,
+``build-scene``, ``snapshot``. Exit codes: 0 success, 1 a run below its pass bar (or an IK failing a
+case), 2 a usage error or a failure with a one-line message, 130 interrupted by Ctrl-C, 143 by
+SIGTERM, 129 by SIGHUP (the report of the cycles completed so far is still written).
 
 This module is the argument parser and the error handling; what each command does and prints is
 in :mod:`kr210_sim.commands`.
@@ -21,6 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeAlias
 
+import kr210_sim.shadowed  # noqa: F401  (first: exits in one line when kr210_sim is shadowed)
 from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError

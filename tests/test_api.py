@@ -187,6 +187,17 @@ def _readme_python_blocks() -> list[str]:
     return re.findall(r"```python\n(.*?)```", section, flags=re.S)
 
 
+def test_the_readmes_run_signature_names_real_parameters_scene_and_cell() -> None:
+    """The README's one-line list of ``kr210_sim.run``'s parameters: each is one, with ``cell``."""
+    import inspect
+
+    listed = re.findall(r"`kr210_sim\.run\((cycles[^)]*)\)`", README.read_text())
+    assert len(listed) == 1
+    names = [n.strip() for n in listed[0].split(",")]
+    assert set(names) <= set(inspect.signature(kr210_sim.run).parameters)
+    assert {"scene", "cell"} <= set(names)
+
+
 @pytest.mark.slow
 def test_the_readme_example_runs_as_written(tmp_path: Path) -> None:
     blocks = _readme_python_blocks()

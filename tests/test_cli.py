@@ -16,6 +16,7 @@ import pytest
 from kr210_sim import __version__
 from kr210_sim.cli import main
 from kr210_sim.score.report import strip_wall
+from kr210_sim.util.paths import SCENES_DIR
 
 
 @pytest.mark.parametrize(
@@ -190,6 +191,21 @@ def test_malformed_scene(
     assert message in _one_line(capsys)
 
 
+@pytest.mark.parametrize("command", ["run", "evaluate", "check"])
+def test_a_cell_file_given_as_scene_points_to_cell(
+    tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A cell file is not MJCF: ``--scene x.toml`` says to use ``--cell``, not "XML parse error"."""
+    cell = SCENES_DIR / "cells" / "column.toml"
+    argv = [command, "--scene", str(cell)]
+    if command != "check":
+        argv += ["--report", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    err = _one_line(capsys)
+    assert f"scene {cell} is a cell file, not MJCF: give it with --cell" in err
+    assert "XML" not in err
+
+
 def _run_with_root(root: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "KR210_SIM_ROOT": str(root)}
     return subprocess.run(
@@ -203,7 +219,6 @@ def _run_with_root(root: Path) -> subprocess.CompletedProcess[str]:
     ("urdf", "message"), [(None, "URDF not found"), ("<robot name='x'><link", "malformed")]
 )
 def test_missing_or_malformed_urdf(tmp_path: Path, urdf: str | None, message: str) -> None:
-    from kr210_sim.util.paths import SCENES_DIR
 
     (tmp_path / "assets" / "kr210").mkdir(parents=True)
     (tmp_path / "scenes").symlink_to(SCENES_DIR)

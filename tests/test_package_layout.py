@@ -119,6 +119,7 @@ def test_no_import_circles() -> None:
 FLOW = {
     "_moved": 0,
     "errors": 0,
+    "shadowed": 0,
     "util": 1,
     "robot": 2,
     "cell": 3,

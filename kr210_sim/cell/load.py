@@ -28,7 +28,7 @@ def load_model(path: Path | str | None = None) -> mujoco.MjModel:
     """Load a cell model: the MJCF at ``path``, or the committed scene when None.
 
     Raises:
-        SceneError: When the file is missing or MuJoCo rejects it.
+        SceneError: When the file is missing, is a cell file (``.toml``) or MuJoCo rejects it.
     """
     path = Path(path) if path is not None else SCENE_PATH
     if path.is_dir():
@@ -39,6 +39,10 @@ def load_model(path: Path | str | None = None) -> mujoco.MjModel:
         )
     if not path.is_file():
         raise SceneError(f"scene not found: {path} (run `python -m kr210_sim build-scene`)")
+    if path.suffix.lower() == ".toml":  # MuJoCo would say "XML parse error" and no more
+        raise SceneError(
+            f"scene {path} is a cell file, not MJCF: give it with --cell (cell= in Python)"
+        )
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except Exception as exc:

@@ -57,7 +57,7 @@ import numpy.typing as npt
 from gymnasium import spaces
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.load import model_at
+from kr210_sim.cell.load import model_at, model_for
 from kr210_sim.cell.spec import MotionConfig
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
@@ -128,6 +128,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         height: Frame height [px].
         scene: Another cell: an MJCF scene or a cell file (``.toml``, compiled); None for the
             committed scene.
+        cell: A cell file (TOML) to compile instead of a scene, as ``run(cell=)`` and
+            ``--cell`` take it; not with ``scene``.
 
     Raises:
         ConfigError: A bad argument (one sentence naming the choices).
@@ -147,6 +149,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         width: int = 480,
         height: int = 352,
         scene: str | Path | None = None,
+        cell: str | Path | None = None,
     ) -> None:
         if control not in CONTROLS:
             raise ConfigError(f"control must be 'joint' or 'cartesian', got {control!r}")
@@ -159,7 +162,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.control, self.reward_type, self.max_steps = control, reward, max_steps
         self.run_config = RunConfig(cycles=1, slot=slot, randomize=bool(randomize))
         self.render_mode = render_mode
-        self.model = model_at(scene)
+        if scene is not None and cell is not None:
+            raise ConfigError("give scene= or cell=, not both (a cell compiles to a scene)")
+        self.model = model_for(None, Path(cell)) if cell is not None else model_at(scene)
         if render_mode is not None:  # checked here, not blamed on OpenGL at the first frame
             from kr210_sim.media.render import check_camera, check_frame_size
 

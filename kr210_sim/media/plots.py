@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from kr210_sim.score.metrics import gripper_tracking_error_mm
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.cell import TickLog
 from kr210_sim.util.outputs import atomic_path, check_folder
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: The files :func:`write_plots` writes.
 PLOT_NAMES = ("tracking_error.png", "gripper_error.png", "joint_limits.png", "cycle_times.png")
@@ -120,22 +124,39 @@ def write_plots(
     save(fig, "joint_limits.png")
 
     # 4. cycle times by outcome
+    fig = cycle_times_figure(results)
+    save(fig, "cycle_times.png")
+    return paths
+
+
+def cycle_times_figure(results: Sequence[CycleResult]) -> Figure:
+    """The cycle-time bar chart: one bar per cycle [s], coloured by outcome, with a legend.
+
+    The legend's entries are patches of the bars' own colours (an empty ``bar()`` call gives a
+    legend handle in the default colour, not the bars').
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
     fig, ax = plt.subplots(figsize=(10, 4))
-    idx = [r.index for r in results]
     ax.bar(
-        idx,
+        [r.index for r in results],
         [r.cycle_time for r in results],
         color=[OUTCOME_COLOURS.get(r.reason, "k") for r in results],
     )
-    for reason, colour in OUTCOME_COLOURS.items():
-        if any(r.reason == reason for r in results):
-            ax.bar([], [], color=colour, label=reason or "success")
+    handles = [
+        Patch(facecolor=colour, label=reason or "success")
+        for reason, colour in OUTCOME_COLOURS.items()
+        if any(r.reason == reason for r in results)
+    ]
     ax.set_xlabel("cycle")
     ax.set_ylabel("cycle time [s]")
     ax.set_title("Cycle time by outcome")
-    if results:
-        ax.legend(fontsize=8)
+    if handles:
+        ax.legend(handles=handles, fontsize=8)
     ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
-    save(fig, "cycle_times.png")
-    return paths
+    return fig

@@ -197,10 +197,32 @@ class ViewerSession:
             self.pacer.restart()
 
 
+def start_up_box(url: str, tty: bool) -> str:
+    """The box that says where the viewer is: one URL, a terminal hyperlink (OSC 8) around it
+    only for a terminal (``tty``): in a log or a pipe the escapes would be noise."""
+    plain = [f"viewer: {url}", "open it in a browser; Ctrl+C to quit"]
+    link = f"\033]8;;{url}\033\\{url}\033]8;;\033\\" if tty else url
+    shown = [f"viewer: {link}", plain[1]]
+    width = max(len(line) for line in plain)
+    rule = "+" + "-" * (width + 2) + "+"
+    rows = [
+        f"| {text}{' ' * (width - len(line))} |" for line, text in zip(plain, shown, strict=True)
+    ]
+    return "\n".join([rule, *rows, rule]) + "\n"
+
+
+def _is_tty(out: TextIO) -> bool:
+    try:
+        return bool(out.isatty())
+    except (AttributeError, ValueError):  # a closed or minimal stream: not a terminal
+        return False
+
+
 def announce(viewer: LiveViewer, settings: ViewerSettings, out: TextIO) -> None:
-    """Say where the viewer is (its URL, or a native window), warning when it is exposed."""
+    """Say where the viewer is (its URL in :func:`start_up_box`, or a native window), warning
+    when it is exposed."""
     if viewer.url:
-        out.write(f"viewer: {viewer.url}\n")
+        out.write(start_up_box(viewer.url, _is_tty(out)))
         if settings.exposed:
             sys.stderr.write(
                 f"kr210_sim: warning: the viewer listens on {settings.host}: anyone who can "

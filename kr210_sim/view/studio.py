@@ -356,6 +356,11 @@ class _Start:
     error: BaseException | None = None
 
 
+def _no_banner(host: str, port: int) -> None:
+    """Studio's start-up banner, not printed."""
+    del host, port
+
+
 def _web_viewer_class(host: str, start: _Start) -> type[Any]:
     """Studio's web viewer, bound on ``host`` (Studio itself binds every interface), reporting
     its start to ``start``."""
@@ -371,6 +376,12 @@ def _web_viewer_class(host: str, start: _Start) -> type[Any]:
             del value  # Studio assigns '::' (all interfaces); the host we were given wins
 
         def __init__(self, *args: Any, **kwargs: Any) -> None:
+            # Studio prints a boxed banner of its own at start-up: a second URL (localhost,
+            # not the host bound here) in terminal hyperlink escapes, even into a log. The
+            # view command's box (kr210_sim.view.live.start_up_box) says it once instead.
+            banner = getattr(web_viewer, "_print_url_banner", None)
+            if banner is not None:
+                web_viewer._print_url_banner = _no_banner
             try:
                 super().__init__(*args, **kwargs)
                 start.port = int(self._http_port)
@@ -378,6 +389,8 @@ def _web_viewer_class(host: str, start: _Start) -> type[Any]:
                 start.error = exc
                 raise
             finally:
+                if banner is not None:
+                    web_viewer._print_url_banner = banner
                 start.done.set()
 
     return _WebViewer

@@ -262,6 +262,21 @@ def test_rgb_array_rendering() -> None:
     assert PickPlaceEnv().render() is None
 
 
+def test_a_cell_file_by_cell_as_run_takes_it(ready_cell: Path) -> None:
+    """``cell=`` is the name ``run(cell=)`` and ``--cell`` use; ``scene=`` takes a cell file too."""
+    from kr210_sim.cell.load import model_identity
+
+    by_cell = gym.make(ENV_ID, cell=ready_cell).unwrapped
+    by_scene = PickPlaceEnv(scene=ready_cell)
+    assert isinstance(by_cell, PickPlaceEnv)
+    assert model_identity(by_cell.model) == model_identity(by_scene.model)
+    assert np.allclose(by_cell.ready_q, np.radians([40, -15, 20, 0, -5, 0]))
+    with pytest.raises(ConfigError, match=r"^give scene= or cell=, not both"):
+        PickPlaceEnv(scene=SCENE_PATH, cell=ready_cell)
+    with pytest.raises(ConfigError, match="cell file"):
+        PickPlaceEnv(cell=ready_cell.with_name("missing.toml"))
+
+
 def test_the_episode_starts_from_the_cells_ready_pose(ready_cell: Path) -> None:
     """A cell that sets ``[robot] ready_q``: the arm starts there and the commanded joint state
     is that pose (it was the motion settings' default, which the arm then swung to)."""

@@ -40,3 +40,29 @@ def test_unwritable_plot_folder(tmp_path: Path, runner: Runner) -> None:
     blocker.write_text("")
     with pytest.raises(ConfigError, match="cannot create the folder"):
         write_plots(blocker / "plots", runner.results, runner.recordings, runner.robot)
+
+
+def test_cycle_time_legend_patches_have_the_bars_colours(runner: Runner) -> None:
+    import dataclasses
+
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from kr210_sim.media.plots import OUTCOME_COLOURS, cycle_times_figure
+
+    ok = runner.results[0]
+    failed = dataclasses.replace(runner.results[1], success=False, reason="collision")
+    fig = cycle_times_figure([ok, failed])
+    try:
+        ax = fig.axes[0]
+        bars = {p.get_x() + p.get_width() / 2: p.get_facecolor() for p in ax.patches}
+        legend = ax.get_legend()
+        colours = {
+            t.get_text(): h.get_facecolor()
+            for t, h in zip(legend.get_texts(), legend.legend_handles, strict=True)
+        }
+    finally:
+        plt.close(fig)
+    assert bars[ok.index] == to_rgba(OUTCOME_COLOURS[None])
+    assert bars[failed.index] == to_rgba(OUTCOME_COLOURS["collision"])
+    assert colours == {"success": bars[ok.index], "collision": bars[failed.index]}

@@ -8,8 +8,11 @@ import json
 import math
 import multiprocessing
 import os
+import re
 import signal
 import socket
+import subprocess
+import sys
 import threading
 import time
 import traceback
@@ -39,6 +42,7 @@ from kr210_sim.view.live import (
     Pacer,
     joint_readout,
     rpy_deg,
+    start_up_box,
 )
 from kr210_sim.view.studio import FAST_OFF, LiveViewer, ViewerSettings, free_camera_pose
 
@@ -293,6 +297,36 @@ def test_unknown_camera_lists_the_cameras(capsys: pytest.CaptureFixture[str]) ->
     ), err
 
 
+def test_start_up_box_has_one_url_and_hyperlink_escapes_only_for_a_terminal() -> None:
+    url = "http://127.0.0.1:8080/"
+    logged = start_up_box(url, tty=False)
+    assert logged == (
+        "+--------------------------------------+\n"
+        "| viewer: http://127.0.0.1:8080/       |\n"
+        "| open it in a browser; Ctrl+C to quit |\n"
+        "+--------------------------------------+\n"
+    )
+    shown = start_up_box(url, tty=True)
+    assert "\033" not in logged and shown.count("\033]8;;") == 2  # OSC 8: open and close
+    # Without its escapes the terminal's box is the logged one: the borders still line up.
+    assert re.sub(r"\033\]8;;[^\033]*\033\\", "", shown) == logged
+
+
+def test_view_into_a_pipe_writes_one_url_and_no_escapes(tmp_path: Path) -> None:
+    """Captured (not a terminal), ``view``'s output holds the viewer's URL once and no terminal
+    escape (Studio's own banner gave a second URL in OSC 8 hyperlinks)."""
+    port = free_port()
+    argv = ["view", "--web", "--port", str(port), "--cycles", "1", "--exit-when-done"]
+    proc = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", *argv, "--speed", "50", "--report",
+         str(tmp_path / "view.json")],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "\033" not in proc.stdout + proc.stderr
+    assert re.findall(r"https?://\S+", proc.stdout) == [f"http://127.0.0.1:{port}/"]
+
+
 def test_only_loopback_is_private() -> None:
     assert not ViewerSettings().exposed
     assert ViewerSettings(host="0.0.0.0").exposed
@@ -409,7 +443,7 @@ def test_view_replay_plays_a_recording_at_the_asked_speed(tmp_path: Path) -> Non
     )
     assert result.interrupted is None and result.frames == rec.frames
     assert opened[0].syncs == rec.frames  # every recorded state went through publish
-    assert out.getvalue().startswith("viewer: http://127.0.0.1:")
+    assert out.getvalue().splitlines()[1].startswith("| viewer: http://127.0.0.1:")
     assert 5.0 < result.real_time_factor < 10.5  # paced: never faster than asked
     # The viewer's copy holds the last recorded positions.
     assert np.array_equal(opened[0].shadow_data.qpos, rec.arrays["qpos"][-1])
