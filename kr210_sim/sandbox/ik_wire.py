@@ -2,11 +2,12 @@
 
 A frame is a 4-byte big-endian length and that many bytes of JSON holding one object. Both sides
 speak it (:mod:`kr210_sim.sandbox.ik_sandbox` and :mod:`kr210_sim.sandbox.ik_child`); the grader's
-side is on guard both ways. The user's process may stop reading its requests, so :func:`send`
-takes a deadline; it may write anything to its end of the pipe, so :func:`receive` bounds a
-frame's size (:data:`MAX_FRAME`) and the time it may take, and tells a frame that is too big (:class:`Oversized`) from one that is not JSON (None).
-:func:`answer_of` reads an answer's message back into the answer (numbers, None, the exception
-the user's code raised, or an unusable answer that says what it was: :func:`refusal`).
+side is on guard both ways. The user's process may stop reading its requests, so :func:`send` takes
+a deadline; it may write anything to its end of the pipe, so :func:`receive` bounds a frame's size
+(:data:`MAX_FRAME`) and the time it may take, and tells a frame that is too big (:class:`Oversized`)
+from one that is not JSON (None). :func:`answer_of` reads an answer's message back into the answer
+(numbers, None, the exception the user's code raised, or an unusable answer that says what it was:
+:func:`refusal`).
 """
 
 from __future__ import annotations
