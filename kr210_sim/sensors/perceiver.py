@@ -12,6 +12,7 @@ is read, for the report only: whether the estimate lies on the target, and how f
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -20,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
+from kr210_sim.cell.spec import TargetSpec
 from kr210_sim.errors import ConfigError, NotSeenError, PlanningError, UnreachablePoseError
 from kr210_sim.perception.camera import Observation
 from kr210_sim.perception.model import RecognitionModel, load_model
@@ -92,7 +94,7 @@ class Perceiver:
         q_cmd: FloatArray,
         track: Callable[[Move], None],
         seed: int = 0,
-    ) -> FloatArray:
+    ) -> TargetSpec:
         """Perceive cycle's target ``k`` (the pick list's ``label``) in ``slot``'s bay.
 
         Args:
@@ -106,13 +108,16 @@ class Perceiver:
             seed: Seeds the pipeline's RANSAC.
 
         Returns:
-            The estimated centre of the target [m] (also :attr:`estimate`).
+            What the plan takes the target to be: the fitted radius and length (the kind's
+            where the look could not measure them), the cell's nominal mass and friction. Its
+            estimated centre [m] is :attr:`estimate`.
 
         Raises:
             NotSeenError: When no look found it (:attr:`record` says what was seen).
         """
         self.estimate, self.record = None, None
-        slot, radius = sample.slot, sample.spec.radius
+        slot, kind = sample.slot, self.recogniser.kind(label)
+        radius = kind.size[0]  # the kind's: the wrist look's standoff
         box = layout_bay(self.layout, slot)
         wall = 0.0
         t0 = time.perf_counter()
@@ -135,8 +140,10 @@ class Perceiver:
         self.record = self._score(cell, k, label, p, len(looks), cpu, wall)
         if p.target is None or p.target.pose is None:
             raise NotSeenError(f"{label} not seen in slot {slot}: {p.reason}")
-        self.estimate = np.asarray(p.target.pose.position, dtype=np.float64).copy()
-        return self.estimate
+        pose = p.target.pose
+        self.estimate = np.asarray(pose.position, dtype=np.float64).copy()
+        size = pose.size if p.target.shape == "cylinder" else kind.size
+        return dataclasses.replace(self.layout.target, radius=size[0], length=size[1])
 
     def _slot_centre(self, slot: int, label: str) -> FloatArray:
         """Where a ``label`` standing at ``slot``'s centre would have its centre [m] (the

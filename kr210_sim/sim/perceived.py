@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import CellLayout
-from kr210_sim.cell.spec import SHELF_BOARD_THICKNESS, SHELF_POST_WIDTH
+from kr210_sim.cell.spec import SHELF_BOARD_THICKNESS, SHELF_POST_WIDTH, TargetSpec
 from kr210_sim.errors import ConfigError
 from kr210_sim.perception.bays import SHELF_BACK_THICKNESS
 from kr210_sim.perception.cloud import BayBox
@@ -138,9 +138,10 @@ class Perceiving(Protocol):
         label: str,
         q_cmd: FloatArray,
         track: Callable[[Move], None],
-    ) -> FloatArray:
-        """Perceive cycle's target ``k`` (the pick list's ``label``) in ``sample``'s slot;
-        the estimated centre [m]. Moves of the arm (a second look) go through ``track``.
+    ) -> TargetSpec:
+        """Perceive cycle's target ``k`` (the pick list's ``label``) in ``sample``'s slot
+        (never its pose): what the plan takes it to be (size as seen); its centre [m] is
+        :attr:`estimate`. Moves of the arm (a second look) go through ``track``.
 
         Raises:
             NotSeenError: When no look found it.

@@ -395,15 +395,16 @@ class Runner:
         attempts = 0
         grip_ref: FloatArray | None = None
         i_grip = i_release = -1
+        spec = sample.spec  # what the plan takes the target to be (with perceive: as seen)
         try:
             if self.perceiver is not None:  # raises NotSeenError: scored before moving
                 track = lambda m: self._track(m, rec, phases)  # noqa: E731
-                self.perceiver.look(cell, k, sample, self.clutter.kind, self.q_cmd, track)
+                spec = self.perceiver.look(cell, k, sample, self.clutter.kind, self.q_cmd, track)
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
                 # The whole cycle is planned (and collision-checked) before the arm moves.
                 shown = cell.time
-                plan = self._plan_making_room(index, k, sample.spec)
+                plan = self._plan_making_room(index, k, spec)
                 t_start += cell.time - shown  # an event shown meanwhile is not the arm's time
                 self.plan = plan
                 planning += plan.wall_time
