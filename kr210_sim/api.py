@@ -191,6 +191,7 @@ def run(
     record: str | Path | None = None,
     record_rate: float = 30.0,
     render_workers: int | None = None,
+    perceive: bool = False,
 ) -> RunReport:
     """Run and score pick-and-place cycles (``python -m kr210_sim run``).
 
@@ -212,6 +213,8 @@ def run(
         record: Write a recording of the run here (``.npz``; ``replay`` renders it).
         record_rate: Frames per simulated second of the recording [Hz].
         render_workers: Processes that render the video (default: one per core).
+        perceive: Pick from what the cell's sensors see (the pipeline's estimate), not the
+            simulator's pose; the truth only scores (each cycle's ``perception`` block).
 
     Returns:
         The run's report; ``to_dict()`` is the JSON ``run --report`` writes.
@@ -232,11 +235,14 @@ def run(
 
     if not isinstance(randomize, bool):
         raise ConfigError(f"randomize must be True or False, got {randomize!r}")
+    if not isinstance(perceive, bool):
+        raise ConfigError(f"perceive must be True or False, got {perceive!r}")
     config = RunConfig(
         cycles=_integer(cycles, "cycles"),
         seed=_whole(seed, "seed", 0),
         slot=_integer(slot, "slot"),
         randomize=randomize,
+        perceive=perceive,
     )
     out = _stream(out, "out")
     progress = _stream(progress, "progress")

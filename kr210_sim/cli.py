@@ -276,10 +276,7 @@ def _add_run(sub: _Commands) -> None:
         "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
     )
     cmd.add_argument(
-        "--record-rate",
-        type=_fps,
-        default=None,
-        help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})",
+        "--record-rate", type=_fps, help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})"
     )
     cmd.add_argument(
         "--render-workers",
@@ -287,6 +284,7 @@ def _add_run(sub: _Commands) -> None:
         default=None,
         help="processes rendering the video (one per core; 1: render in this process)",
     )
+    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
     cmd.set_defaults(func=commands.run)
 
 

@@ -127,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
             record=args.record,
             record_rate=args.record_rate or DEFAULT_RECORD_RATE,
             render_workers=args.render_workers,
+            perceive=args.perceive,
         )
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]

@@ -80,6 +80,10 @@ class NoPathError(PlanningError):
     """No collision-free plan exists for a move (the detail names what blocks)."""
 
 
+class NotSeenError(PlanningError):
+    """``run --perceive``: no look found the cycle's target (the detail says what was seen)."""
+
+
 def one_line(text: object) -> str:
     """``text`` as one line: every run of white space (newlines included) becomes one space.
 

@@ -222,7 +222,13 @@ def run_job(
         if scene is not None or cell is not None:
             assert model is not None
             refuse_unservable(model)
-        runner = Runner(config, model=model, keep_recordings=plots_dir is not None, ik=ik)
+        perceiver = None
+        if config.perceive:  # renders the cell's sensors: imported only for --perceive
+            from kr210_sim.sensors.perceiver import Perceiver
+
+            perceiver = Perceiver
+        keep = plots_dir is not None
+        runner = Runner(config, model=model, keep_recordings=keep, ik=ik, perceiver=perceiver)
         geoms = runner.cell.handles.target_geoms
         recorders: list[StateRecorder] = []
         states: StateRecorder | None = None

@@ -39,6 +39,9 @@ OUTCOME_COLOURS = {
     "ik_failed": "#17becf",
     "no_path": "#bcbd22",
     "not_settled": "#c49c94",
+    "not_seen": "#aec7e8",
+    "wrong_object": "#ff9896",
+    "grasp_missed_estimate_off": "#ffbb78",
 }
 
 

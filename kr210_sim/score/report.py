@@ -26,6 +26,7 @@ __all__ = [
     "build_report",
     "cycle_line",
     "is_measured",
+    "perception_summary",
     "strip_wall",
     "summarise",
     "summary_table",
@@ -88,6 +89,9 @@ def summarise(results: Sequence[CycleResult], wall_time: float | None = None) ->
                 "mean": float(ratio.mean()),
                 "max": float(ratio.max()),
             }
+    perception = perception_summary(results)
+    if perception is not None:
+        summary["perception"] = perception
     if wall_time is not None:
         summary["wall_time_s"] = wall_time
         rtf = (summary["sim_time"] / wall_time) if wall_time > 0 else 0.0
@@ -107,6 +111,43 @@ def _jsonable(obj: Any) -> Any:
     if isinstance(obj, np.generic):
         return obj.item()
     return obj
+
+
+def _config(config: object) -> Any:
+    """The run's settings as JSON; ``perceive`` only when on (a run without it keeps the
+    report it always had)."""
+    d = _jsonable(config)
+    if isinstance(d, dict) and d.get("perceive") is False:
+        del d["perceive"]
+    return d
+
+
+def perception_summary(results: Sequence[CycleResult]) -> dict[str, Any] | None:
+    """The summary's ``perception`` block of a ``--perceive`` run (None without): the cycles
+    perceived, the recognition rate (the target seen and the estimate on it), the position
+    error of the seen targets [mm] (median, p95, max) and the pipeline's CPU time per cycle
+    [ms] (mean, max)."""
+    recs = [r.perception for r in results if r.perception is not None]
+    if not recs:
+        return None
+    right = sum(bool(p["right_object"]) for p in recs)
+    errs = np.array([p["position_error_mm"] for p in recs if p["position_error_mm"] is not None])
+    cpu = np.array([p["cpu_time_ms"] for p in recs])
+    out: dict[str, Any] = {
+        "cycles": len(recs),
+        "recognised": right,
+        "recognition_rate": right / len(recs),
+        "second_looks": sum(p["looks"] > 1 for p in recs),
+        "position_error_mm": None,
+        "cpu_time_ms": {"mean": float(cpu.mean()), "max": float(cpu.max())},
+    }
+    if len(errs):
+        out["position_error_mm"] = {
+            "median": float(np.median(errs)),
+            "p95": float(np.percentile(errs, 95)),
+            "max": float(errs.max()),
+        }
+    return out
 
 
 def build_report(
@@ -134,7 +175,7 @@ def build_report(
     """
     return {
         "kind": "kr210_sim.run",
-        "config": _jsonable(config),
+        "config": _config(config),
         "cell": _jsonable(cell),
         "cycles": [r.to_dict() for r in results],
         "events": [e.to_dict() for e in events],
@@ -193,6 +234,10 @@ def summary_table(summary: dict[str, Any]) -> str:
         rows.insert(
             4, ("moves / their lower bound", f"{b['mean']:.2f} / {b['max']:.2f} (mean / max)")
         )
+    if "perception" in summary:
+        p, e = summary["perception"], summary["perception"]["position_error_mm"]
+        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+        rows.append(("recognised", f"{p['recognised']}/{p['cycles']}{err if e else ''}"))
     if "wall_time_s" in summary:
         wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
         factor = f"{rtf:.0f}" if rtf >= 10 else f"{rtf:.2g}"  # never "0x" for a slow run

@@ -68,6 +68,9 @@ class CycleResult:
             also counts the waits for a core; excluded from determinism checks).
         moves: The cycle plan's arm moves: (phase, planner ("direct" or "ompl"), duration [s],
             lower bound of the duration at the joint velocity and acceleration limits [s]).
+        perception: With ``run --perceive``, what the sensors saw scored against the truth
+            (:meth:`kr210_sim.sim.perceived.PerceptionRecord.to_dict`); None (and no key in the
+            record) without.
     """
 
     index: int
@@ -90,6 +93,7 @@ class CycleResult:
     wall_planning_time: float
     cpu_planning_time: float
     moves: tuple[tuple[str, str, float, float], ...] = ()
+    perception: dict[str, Any] | None = None
 
     @property
     def bound_ratio(self) -> float:
@@ -116,6 +120,8 @@ def cycle_record(r: CycleResult) -> dict[str, Any]:
     }
     d["target_final"] = list(r.target_final)
     d["moves"] = [{"phase": p, "planner": k, "duration": t, "bound": b} for p, k, t, b in r.moves]
+    if r.perception is None:  # runs without --perceive keep the record they always had
+        del d["perception"]
     return d
 
 

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.cell.layout import BinBox
-from kr210_sim.errors import IkFailedError, NoPathError
+from kr210_sim.errors import IkFailedError, NoPathError, NotSeenError
 
 __all__ = [
     "GRAVITY",
@@ -44,6 +44,7 @@ __all__ = [
     "is_still",
     "judge",
     "outcome_decided",
+    "perceived_outcome",
     "plan_failure",
     "rest_window_ticks",
     "rise",
@@ -70,6 +71,13 @@ class Outcome(StrEnum):
     #: The target's centre is in the bin, but when the settle wait ended the cylinders in play
     #: still moved fast enough to lift it over the rim (see :func:`contained`).
     NOT_SETTLED = "not_settled"
+    #: ``--perceive``: no look (the fixed sensor's, then the wrist camera's) found the target.
+    NOT_SEEN = "not_seen"
+    #: ``--perceive``: the cycle failed, and the object perceived as the target was another.
+    WRONG_OBJECT = "wrong_object"
+    #: ``--perceive``: the grasp missed, and the estimate was off the target's centre by more
+    #: than the grasp tolerates (:func:`perceived_outcome`).
+    GRASP_MISSED_ESTIMATE_OFF = "grasp_missed_estimate_off"
 
 
 #: Largest linear speed of a target counted as still [m/s].
@@ -181,7 +189,25 @@ def plan_failure(exc: Exception) -> Outcome:
         return Outcome.IK_FAILED
     if isinstance(exc, NoPathError):
         return Outcome.NO_PATH
+    if isinstance(exc, NotSeenError):
+        return Outcome.NOT_SEEN
     return Outcome.UNREACHABLE
+
+
+def perceived_outcome(
+    outcome: Outcome, right_object: bool, error: float, tolerance: float
+) -> Outcome:
+    """A perceived cycle's outcome (``run --perceive``), scored against the truth: a failure
+    after perceiving another object as the target is ``wrong_object``; a missed grasp whose
+    estimate was off the target's centre by more than the grasp's ``tolerance`` [m] (``error``
+    [m]) is ``grasp_missed_estimate_off``; anything else stands."""
+    if outcome in (Outcome.SUCCESS, Outcome.NOT_SEEN):
+        return outcome
+    if not right_object:
+        return Outcome.WRONG_OBJECT
+    if outcome is Outcome.GRASP_MISSED and error > tolerance:
+        return Outcome.GRASP_MISSED_ESTIMATE_OFF
+    return outcome
 
 
 def bin_region(bin_box: BinBox) -> tuple[FloatArray, FloatArray]:

@@ -40,6 +40,7 @@ from kr210_sim.score.scoring import (
 )
 from kr210_sim.sim.cell import Cell, TickLog, hold
 from kr210_sim.sim.clutter import Clutter
+from kr210_sim.sim.perceived import PerceiverFactory, attach, estimate_or, report, rescore
 from kr210_sim.sim.targets import TargetPool
 
 import mujoco  # isort: skip
@@ -77,6 +78,7 @@ class RunConfig:
         randomize: Randomise the target per cycle (see :class:`RandomizationSpec`).
         grasp_attempts: Attempts at a grasp before the cycle is scored ``grasp_missed``.
         motion: Motion settings.
+        perceive: Pick from what the sensors saw (:mod:`kr210_sim.sim.perceived`), not the truth.
 
     The cell (layout, target, randomisation ranges) is the simulated model's
     (:class:`~kr210_sim.cell.layout.CellLayout`), not a setting.
@@ -88,6 +90,7 @@ class RunConfig:
     randomize: bool = False
     grasp_attempts: int = 2
     motion: MotionConfig = field(default_factory=MotionConfig)
+    perceive: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.cycles, int) or not 1 <= self.cycles <= MAX_CYCLES:
@@ -148,6 +151,8 @@ class Runner:
             ``config.seed``).
         checker: A collision checker of ``model`` to plan with (default: one built for it; a
             Gymnasium environment keeps one for all its episodes).
+        perceiver: Makes the perceiver ``config.perceive`` needs
+            (:class:`kr210_sim.sensors.perceiver.Perceiver`).
     """
 
     def __init__(
@@ -159,6 +164,7 @@ class Runner:
         ik: UserIk | None = None,
         rng: np.random.Generator | None = None,
         checker: CollisionChecker | None = None,
+        perceiver: PerceiverFactory | None = None,
     ) -> None:
         self.config = config
         self.robot = robot or load_robot()
@@ -192,6 +198,8 @@ class Runner:
         self.targets = TargetPool(self.cell, self.layout)
         #: The cell's distractors and pick list (nothing happens on a tidy shelf).
         self.clutter = Clutter(self.model, self.layout)
+        #: Looks at each cycle's target (``config.perceive``; None: the truth is told).
+        self.perceiver = attach(config.perceive, perceiver, self.model, self.planner)
         self.status: dict[str, object] = {
             "cycle": 0,
             "cycles": config.cycles,
@@ -293,8 +301,8 @@ class Runner:
 
     def observe_target(self, index: int) -> FloatArray:
         """The target's position [m] as the planner perceives it (the simulator's pose: a
-        perfect sensor; subclasses may model perception error)."""
-        return self.cell.target_pose(index)[0]
+        perfect sensor), or with ``perceive`` the cycle's estimate (:attr:`perceiver`)."""
+        return estimate_or(self.perceiver, self.cell.target_pose(index)[0])
 
     def target_tilt_deg(self, index: int) -> float:
         """Angle of target ``index``'s axis from the vertical [deg]."""
@@ -387,12 +395,16 @@ class Runner:
         attempts = 0
         grip_ref: FloatArray | None = None
         i_grip = i_release = -1
+        spec = sample.spec  # what the plan takes the target to be (with perceive: as seen)
         try:
+            if self.perceiver is not None:  # raises NotSeenError: scored before moving
+                track = lambda m: self._track(m, rec, phases)  # noqa: E731
+                spec = self.perceiver.look(cell, k, sample, self.clutter.kind, self.q_cmd, track)
             while attempts < cfg.grasp_attempts and not confirmed:
                 attempts += 1
                 # The whole cycle is planned (and collision-checked) before the arm moves.
                 shown = cell.time
-                plan = self._plan_making_room(index, k, sample.spec)
+                plan = self._plan_making_room(index, k, spec)
                 t_start += cell.time - shown  # an event shown meanwhile is not the arm's time
                 self.plan = plan
                 planning += plan.wall_time
@@ -482,6 +494,7 @@ class Runner:
             contact_pairs=tuple(sorted(rec.contact_pairs)),
         )
         outcome, detail = judge(obs, self.layout.bin)
+        outcome, detail = rescore(self.perceiver, outcome, detail, sample.spec.radius)
         result = self._summarise(
             index,
             sample,
@@ -504,6 +517,7 @@ class Runner:
             wall_planning_time=planning,
             cpu_planning_time=planning_cpu,
             moves=tuple((m.phase, m.planner, m.trajectory.duration, m.bound) for m in moves),
+            perception=report(self.perceiver),
         )
         self.results.append(result)
         if self.keep_recordings:
