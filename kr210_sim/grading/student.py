@@ -73,10 +73,13 @@ FloatArray = npt.NDArray[np.float64]
 
 #: The grading process: :func:`main` with ``RECORD_FD PARENT_PID`` (the job on its stdin).
 #: ``-c``, not ``-m``: running this module as ``__main__`` after the package imported it gave
-#: every grading process a runpy RuntimeWarning. Its working folder is first on ``sys.path``,
-#: as for ``python -m kr210_sim``: a module SPEC is found where ``--ik`` finds it.
+#: every grading process a runpy RuntimeWarning. ``-P``: its working folder (often the class
+#: folder) is not on ``sys.path``, so no student's ``ruckig/`` or ``numpy.py`` is imported here,
+#: outside the jail; a module SPEC there is still found (located, not run) by
+#: :func:`~kr210_sim.sandbox.user_ik.find_module`.
 STUDENT_COMMAND = (
     sys.executable,
+    "-P",
     "-c",
     "import sys; from kr210_sim.grading.student import main; sys.exit(main(sys.argv[1:]))",
 )
