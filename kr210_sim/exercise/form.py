@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
 from kr210_sim.errors import IkSpecError
+from kr210_sim.exercise.files import read_regular, scan
 
 #: The handler every IK server defines (the SPEC's function; the fallback when the script
 #: registers none).
@@ -37,6 +38,8 @@ DEPTH = 4
 #: Most files, and bytes, of a script's folder copied into its working folder.
 SEED_FILES = 200
 SEED_BYTES = 128 << 20
+#: How deep below the script's folder files are copied.
+SEED_DEPTH = 4
 
 _ROS_IMPORT = re.compile(
     rb"^[ \t]*(?:import[ \t]+(?:rospy|kuka_arm)\b"
@@ -119,35 +122,60 @@ def _is(path: Path, test: Callable[[Path], bool]) -> bool:
         return False
 
 
-def seed_scratch(script: Path, scratch: Path) -> int:
-    """Copy the files beside ``script`` (its folder, subfolders too, without ``__pycache__``
-    and compiled files) into ``scratch``, its working folder, so that it reads them by relative
-    paths as it did under ``rosrun``; a file already there (one the script wrote) is kept. At
-    most :data:`SEED_FILES` files and :data:`SEED_BYTES` bytes, the smallest first.
+def _seedable(st: os.stat_result) -> bool:
+    """Whether a student's file may be copied into its working folder by the grader (often
+    root): readable by anyone (not only by its owner, an instructor's key, say), and not a hard
+    link (it may be anyone's file)."""
+    return bool(st.st_mode & stat.S_IROTH) and st.st_nlink == 1
+
+
+def seed_scratch(script: Path, scratch: Path, root: Path | None = None) -> int:
+    """Copy the student's files beside ``script`` (its folder, subfolders too, without
+    ``__pycache__``, hidden folders and compiled files) into ``scratch``, its working folder, so
+    that it reads them by relative paths as it did under ``rosrun``; a file already there (one
+    the script wrote) is kept. Only the student's own files: ``root`` alone when it is a file (a
+    server handed in as one file of a class folder), else what of the script's folder lies in
+    ``root``; and of those only what anyone may read (:func:`_seedable`). Links are not
+    followed, and at most :data:`SEED_FILES` files and :data:`SEED_BYTES` bytes are copied,
+    the smallest first.
+
+    Args:
+        script: The server script.
+        scratch: Its working folder.
+        root: The student's own files, a file or a folder (None: the script's folder).
 
     Returns:
         The files copied.
     """
     folder = script.resolve().parent
-    found: list[tuple[int, Path]] = []
-    for here, dirs, files in os.walk(folder):
-        dirs[:] = sorted(d for d in dirs if d != "__pycache__" and not d.startswith("."))
-        for name in files:
-            path = Path(here) / name
-            if path.suffix in (".pyc", ".pyo") or path.is_symlink() or not path.is_file():
-                continue
-            found.append((path.stat().st_size, path))
+    own = folder if root is None else root.resolve()
+    if own.is_file():
+        found = scan(own.parent, 0).files
+        found = [(p, st) for p, st in found if p.name == own.name]
+    elif folder.is_relative_to(own):
+        skip = _hidden_or_cache
+        found = scan(folder, SEED_DEPTH, skip, limit=4 * SEED_FILES).files
+    else:
+        found = []
+    candidates = sorted(
+        (st.st_size, p) for p, st in found if p.suffix not in (".pyc", ".pyo") and _seedable(st)
+    )
     copied, total = 0, 0
-    for size, path in sorted(found):
+    for size, path in candidates:
         if copied >= SEED_FILES or total + size > SEED_BYTES:
             break
-        target = scratch / path.relative_to(folder)
+        target = scratch / path.relative_to(own.parent if own.is_file() else folder)
         if target.exists():
             continue
-        target.parent.mkdir(parents=True, exist_ok=True)
         try:
-            shutil.copyfile(path, target)
+            data = read_regular(path, SEED_BYTES - total)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)
         except OSError:
             continue
-        copied, total = copied + 1, total + size
+        copied, total = copied + 1, total + len(data)
     return copied
+
+
+def _hidden_or_cache(name: str) -> bool:
+    return name == "__pycache__" or name.startswith(".")

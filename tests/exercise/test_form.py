@@ -3,6 +3,7 @@ folder seeded with the files beside it."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -68,3 +69,37 @@ def test_the_files_beside_the_script_are_copied_into_its_working_folder(tmp_path
         "data/dh.csv",
     ]
     assert (scratch / "T0_3.pkl").read_text() == "the script's own"
+
+
+def test_a_single_file_server_is_seeded_with_itself_alone(tmp_path: Path) -> None:
+    """A server handed in as one file of a class folder: its student's files are that file, so
+    neither a classmate's ``ik.py`` nor an instructor's 0600 file beside it is copied."""
+    script = write(tmp_path / "class" / "alice_server.py")
+    write(tmp_path / "class" / "ik.py", OURS)
+    key = write(tmp_path / "class" / "key.txt", "secret")
+    key.chmod(0o600)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert seed_scratch(script, scratch, root=script) == 1
+    assert [p.name for p in scratch.rglob("*")] == ["alice_server.py"]
+
+
+def test_a_folder_s_files_are_seeded_only_as_readable_as_they_are_to_anyone(
+    tmp_path: Path,
+) -> None:
+    """A student folder: its own readable files, not one only its owner may read (the copy is
+    the grader's, often root's), not a hard link (it may be anyone's file), nothing outside
+    the student's folder."""
+    folder = tmp_path / "class" / "bob"
+    script = write(folder / "scripts" / "IK_server.py")
+    write(folder / "scripts" / "dh.csv", "a,b")
+    write(folder / "README.md", "mine")
+    write(tmp_path / "class" / "carol" / "ik.py", OURS)
+    key = write(tmp_path / "key.txt", "secret")
+    key.chmod(0o600)
+    os.link(key, folder / "scripts" / "linked.txt")
+    write(folder / "scripts" / "private.txt", "x").chmod(0o600)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert seed_scratch(script, scratch, root=folder / "scripts") == 2
+    assert sorted(p.name for p in scratch.rglob("*")) == ["IK_server.py", "dh.csv"]
