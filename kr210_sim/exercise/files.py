@@ -56,6 +56,11 @@ def scan(
         limit: Most entries looked at, in all.
     """
     found = Scan()
+    try:
+        if not stat.S_ISDIR(folder.lstat().st_mode):
+            return found
+    except (OSError, ValueError):
+        return found
     level: list[Path] = [folder]
     for below in range(depth + 1):
         deeper: list[Path] = []

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from kr210_sim.errors import IkSpecError
-from kr210_sim.exercise.files import read_regular, scan
+from kr210_sim.exercise.files import read_head, read_regular, scan
 
 #: The handler every IK server defines (the SPEC's function; the fallback when the script
 #: registers none).
@@ -54,38 +54,38 @@ def is_ros_form(path: Path) -> bool:
     ``kuka_arm`` and registers a service or defines ``handle_calculate_IK`` (False for a file
     that cannot be read)."""
     try:
-        with open(path, "rb") as f:
-            head = f.read(READ)
+        head = read_head(path, READ)
     except OSError:
         return False
     return bool(_ROS_IMPORT.search(head) and _SERVICE.search(head))
 
 
-def _visible(path: Path, root: Path) -> bool:
-    return not any(p.startswith((".", "_")) for p in path.relative_to(root).parts[:-1])
+def _hidden(name: str) -> bool:
+    return name.startswith((".", "_"))
 
 
 def find_server(folder: Path) -> Path | None:
     """The ROS-form server in ``folder``: ``IK_server.py`` in ``kuka_arm/scripts``,
     ``scripts`` or the folder itself; else the one ``IK_server.py`` below it (at most
     :data:`DEPTH` folders down, a ``kuka_arm/scripts`` one first); else the one ROS-form
-    script in a ``scripts`` folder. None when there is none (or no single one)."""
+    script in a ``scripts`` folder. None when there is none (or no single one). Below the
+    three places, only regular files count, and the search follows no link and looks at a
+    bounded number of entries (:func:`~kr210_sim.exercise.files.scan`)."""
     for place in PLACES:
         path = folder / place / SERVER
-        if path.is_file():
+        if _is(path, Path.is_file):  # a link here is found, for the roster to say where it leads
             return path
     found = sorted(
-        p
-        for depth in range(1, DEPTH + 1)
-        for p in folder.glob("/".join(["*"] * depth) + f"/{SERVER}")
-        if p.is_file() and _visible(p, folder)
+        p for p, _ in scan(folder, DEPTH, _hidden).files if p.name == SERVER and p.parent != folder
     )
     preferred = [p for p in found if p.parent.match("kuka_arm/scripts")]
     for group in (preferred, found):
         if len(group) == 1:
             return group[0]
     scripts = [folder / "kuka_arm" / "scripts", folder / "scripts"]
-    servers = [p for s in scripts if s.is_dir() for p in sorted(s.glob("*.py")) if is_ros_form(p)]
+    servers = [
+        p for s in scripts for p, _ in scan(s, 0).files if p.suffix == ".py" and is_ros_form(p)
+    ]
     return servers[0] if len(servers) == 1 else None
 
 

@@ -23,6 +23,8 @@ def test_a_scan_follows_no_link_and_stops_at_its_depth_and_count(tmp_path: Path)
     names = [str(p.relative_to(tmp_path)) for p, _ in found.files]
     assert names == ["top.py", "a/one.py", "a/b/two.py"]
     assert found.complete and found.visited == 10  # 6 at the top, 2 in a, 2 in a/b (c not entered)
+    assert scan(tmp_path / "loop", 2).files == []  # the folder itself a link: nothing
+    assert scan(tmp_path / "top.py", 2).files == []
     few = scan(tmp_path, 3, limit=4)
     assert not few.complete and few.visited == 5 and len(few.files) <= 4
 
