@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from kr210_sim.errors import IkSpecError
 from kr210_sim.grading.budget import FIRST, Budget, chunks, need_text, split
 from kr210_sim.grading.diagnose import diagnose
 from kr210_sim.grading.ikcheck import Case, check, fixed_cases, random_cases, summarise
@@ -394,7 +395,7 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         return record
     try:
         sandbox = student_sandbox(job)
-    except JailUnavailable as exc:
+    except (JailUnavailable, IkSpecError) as exc:  # IkSpecError: a file of its not read
         record["detail"] = str(exc)
         return record
     clock = StudentClock(sandbox, job.timeout)
