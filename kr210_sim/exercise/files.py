@@ -10,13 +10,14 @@ named ``IK_helper.py`` does not block it), at most a given number of bytes.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["MAX_ENTRIES", "Scan", "TooLarge", "read_head", "read_regular", "scan"]
+__all__ = ["MAX_ENTRIES", "Scan", "TooLarge", "read_head", "read_regular", "scan", "sha256_regular"]
 
 #: Most entries (files, folders, links) one scan looks at, in all.
 MAX_ENTRIES = 20_000
@@ -138,6 +139,24 @@ def read_regular(path: Path, limit: int) -> bytes:
         if len(data) > limit:
             raise TooLarge(f"{path} holds more than the {limit:,} bytes read")
         return data
+    finally:
+        os.close(fd)
+
+
+def sha256_regular(path: Path) -> str | None:
+    """The SHA-256 of the regular file ``path`` (a link to one is followed), read in chunks,
+    without blocking on a FIFO or a device; None when it is no regular file or unreadable."""
+    try:
+        fd, _ = _open_regular(path, follow=True)
+    except OSError:
+        return None
+    try:
+        digest = hashlib.sha256()
+        while chunk := os.read(fd, 1 << 20):
+            digest.update(chunk)
+        return digest.hexdigest()
+    except OSError:
+        return None
     finally:
         os.close(fd)
 

@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError, one_line
+from kr210_sim.exercise.files import sha256_regular
 from kr210_sim.exercise.form import is_ros_form, resolve_spec
 
 FloatArray = npt.NDArray[np.float64]
@@ -321,12 +322,7 @@ def ik_identity(spec: str) -> dict[str, str | None]:
     else:
         found = find_module(where)
         source = found.origin if found is not None else None
-    digest = None
-    if source is not None:
-        try:
-            digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
-        except OSError:
-            digest = None
+    digest = sha256_regular(Path(source)) if source is not None else None
     return {"function": name, "sha256": digest}
 
 
