@@ -123,10 +123,17 @@ def _is(path: Path, test: Callable[[Path], bool]) -> bool:
 
 
 def _seedable(st: os.stat_result) -> bool:
-    """Whether a student's file may be copied into its working folder by the grader (often
-    root): readable by anyone (not only by its owner, an instructor's key, say), and not a hard
-    link (it may be anyone's file)."""
-    return bool(st.st_mode & stat.S_IROTH) and st.st_nlink == 1
+    """Whether a student's file may be copied into its working folder by the grader: only what
+    the jail's user could read of it (the grader's uid, its capabilities dropped: no override
+    of a file's mode; an instructor's 0600 file owned by another user is not), and not a hard
+    link (it may be anyone's file, the roster checks only symbolic links)."""
+    if st.st_nlink != 1:
+        return False
+    if st.st_uid == os.geteuid():
+        return bool(st.st_mode & stat.S_IRUSR)
+    if st.st_gid == os.getegid():
+        return bool(st.st_mode & stat.S_IRGRP)
+    return bool(st.st_mode & stat.S_IROTH)
 
 
 def seed_scratch(script: Path, scratch: Path, root: Path | None = None) -> int:
@@ -135,9 +142,9 @@ def seed_scratch(script: Path, scratch: Path, root: Path | None = None) -> int:
     that it reads them by relative paths as it did under ``rosrun``; a file already there (one
     the script wrote) is kept. Only the student's own files: ``root`` alone when it is a file (a
     server handed in as one file of a class folder), else what of the script's folder lies in
-    ``root``; and of those only what anyone may read (:func:`_seedable`). Links are not
-    followed, and at most :data:`SEED_FILES` files and :data:`SEED_BYTES` bytes are copied,
-    the smallest first.
+    ``root``; and of those only what the student could read in its jail (:func:`_seedable`).
+    Links are not followed, and at most :data:`SEED_FILES` files and :data:`SEED_BYTES` bytes
+    are copied, the smallest first.
 
     Args:
         script: The server script.

@@ -84,12 +84,12 @@ def test_a_single_file_server_is_seeded_with_itself_alone(tmp_path: Path) -> Non
     assert [p.name for p in scratch.rglob("*")] == ["alice_server.py"]
 
 
-def test_a_folder_s_files_are_seeded_only_as_readable_as_they_are_to_anyone(
+def test_a_folder_s_files_are_seeded_only_as_its_jail_could_read_them(
     tmp_path: Path,
 ) -> None:
-    """A student folder: its own readable files, not one only its owner may read (the copy is
-    the grader's, often root's), not a hard link (it may be anyone's file), nothing outside
-    the student's folder."""
+    """A student folder: its own files that its jail's user could read, not another user's 0600
+    file (the copy is the grader's, often root's), not a hard link (it may be anyone's file),
+    nothing outside the student's folder."""
     folder = tmp_path / "class" / "bob"
     script = write(folder / "scripts" / "IK_server.py")
     write(folder / "scripts" / "dh.csv", "a,b")
@@ -98,8 +98,14 @@ def test_a_folder_s_files_are_seeded_only_as_readable_as_they_are_to_anyone(
     key = write(tmp_path / "key.txt", "secret")
     key.chmod(0o600)
     os.link(key, folder / "scripts" / "linked.txt")
-    write(folder / "scripts" / "private.txt", "x").chmod(0o600)
+    write(folder / "scripts" / "mine.txt", "x").chmod(0o600)  # the grader's: the jail's user's
+    others = write(folder / "scripts" / "theirs.txt", "x")
+    others.chmod(0o600)
+    if os.geteuid() == 0:
+        os.chown(others, 54321, 54321)  # another user's: the jail's user may not read it
+    else:
+        others.chmod(0o000)
     scratch = tmp_path / "scratch"
     scratch.mkdir()
-    assert seed_scratch(script, scratch, root=folder / "scripts") == 2
-    assert sorted(p.name for p in scratch.rglob("*")) == ["IK_server.py", "dh.csv"]
+    assert seed_scratch(script, scratch, root=folder / "scripts") == 3
+    assert sorted(p.name for p in scratch.rglob("*")) == ["IK_server.py", "dh.csv", "mine.txt"]
