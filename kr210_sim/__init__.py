@@ -25,6 +25,16 @@ from __future__ import annotations
 
 from typing import Any
 
+import os as _os  # isort: skip
+import sys as _sys  # isort: skip
+
+# ``python -m kr210_sim`` puts its working folder first on ``sys.path``: a ``ruckig/`` or
+# ``numpy.py`` there (a class folder graded from inside) would be imported by the grader,
+# outside any jail. The package is found by now; the folder goes before anything else is
+# imported (a module SPEC there is still found: kr210_sim.sandbox.user_ik.find_module).
+if _sys.argv[:1] == ["-m"] and _sys.path and _sys.path[0] in ("", _os.getcwd()):
+    del _sys.path[0]
+
 from kr210_sim.util import gl as _gl  # noqa: F401  # isort: skip (first: MUJOCO_GL, mujoco)
 from kr210_sim import _moved
 from kr210_sim.errors import (

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import importlib.abc
 import importlib.machinery
+import itertools
+import os
 import re
 import sys
 import types
@@ -32,9 +34,14 @@ from typing import Any
 
 from kr210_sim.errors import IkSpecError
 from kr210_sim.exercise import messages
+from kr210_sim.exercise.files import MAX_ENTRIES, TooLarge, read_regular, scan
 
 #: The modules the shims already provide whole (never made from the student's files).
 KEPT = frozenset({"kuka_arm.srv"})
+#: Most of a ``package.xml``, a ``.msg`` or a ``.srv`` file read (they are a few kB) [bytes].
+READ_LIMIT = 1 << 20
+#: Most message or service files of one package read.
+MAX_DEFINITIONS = 1000
 #: A field or constant line of a definition.
 _LINE = re.compile(
     r"^(?P<type>[A-Za-z][\w/]*(?:\[\d*\])?)\s+(?P<name>\w+)\s*(?:=\s*(?P<value>.*))?$"
@@ -65,19 +72,59 @@ def definition_files(script: Path) -> list[Path]:
 
 
 def _children(folder: Path) -> list[Path]:
+    """The folders in ``folder`` (not links to folders), a bounded number."""
     try:
-        return [p for p in folder.iterdir() if p.is_dir()]
+        with os.scandir(folder) as it:
+            entries = list(itertools.islice(it, MAX_ENTRIES))
     except OSError:
         return []
+    return [Path(e.path) for e in entries if _is_dir(e)]
+
+
+def _is_dir(entry: os.DirEntry[str]) -> bool:
+    try:
+        return entry.is_dir(follow_symlinks=False)
+    except OSError:
+        return False
+
+
+def read_definition(path: Path) -> str:
+    """The text of a student's ``package.xml``, ``.msg`` or ``.srv`` file: a regular file, at
+    most :data:`READ_LIMIT` bytes.
+
+    Raises:
+        IkSpecError: It is larger (one line naming it), or not a regular file.
+        OSError: It cannot be read.
+    """
+    try:
+        data = read_regular(path, READ_LIMIT)
+    except TooLarge:
+        size = path.lstat().st_size
+        raise IkSpecError(
+            f"{path} holds {size:,} bytes, more than the {READ_LIMIT:,} read: not read "
+            f"(a {path.name if path.suffix == '.xml' else path.suffix + ' file'} is a few kB)"
+        ) from None
+    return data.decode(errors="replace")
 
 
 def _package_name(folder: Path) -> str:
+    """The name ``folder``'s ``package.xml`` gives its package (else the folder's name).
+
+    Raises:
+        IkSpecError: Its ``package.xml`` is too large to read.
+    """
     try:
-        text = (folder / "package.xml").read_text(errors="replace")
+        text = read_definition(folder / "package.xml")
     except OSError:
         return folder.name
     match = re.search(r"<name>\s*([\w-]+)\s*</name>", text)
     return match.group(1) if match else folder.name
+
+
+def _definitions(folder: Path, suffix: str) -> list[Path]:
+    """The ``*<suffix>`` regular files of ``folder`` (a bounded number, no links)."""
+    found = scan(folder, 0, limit=MAX_DEFINITIONS).files
+    return sorted(p for p, _ in found if p.suffix == suffix)
 
 
 def _constant(kind: str, value: str) -> Any:
@@ -128,13 +175,13 @@ def msg_module(fullname: str, folder: Path) -> types.ModuleType:
     """The module ``<package>.msg``: a class per ``folder/msg/*.msg`` file."""
     package = fullname.rsplit(".", 1)[0]
     module = types.ModuleType(fullname)
-    files = sorted((folder / "msg").glob("*.msg"))
+    files = _definitions(folder / "msg", ".msg")
     pending = {f.stem: f for f in files}
     # a message naming another of its package is built after it (as genpy ordered them)
     while pending:
         progress = False
         for name, path in list(pending.items()):
-            text = path.read_text(errors="replace")
+            text = read_definition(path)
             needs = {k.split("[")[0] for k, _ in parse(text, path.name)[0]} & set(pending)
             if needs - {name}:
                 continue
@@ -153,8 +200,8 @@ def srv_module(fullname: str, folder: Path) -> types.ModuleType:
     package = fullname.rsplit(".", 1)[0]
     module = types.ModuleType(fullname)
     names: list[str] = []
-    for path in sorted((folder / "srv").glob("*.srv")):
-        text = path.read_text(errors="replace")
+    for path in _definitions(folder / "srv", ".srv"):
+        text = read_definition(path)
         request, sep, response = text.partition("\n---")
         if not sep and text.startswith("---"):
             request, response = "", text[3:]

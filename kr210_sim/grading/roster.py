@@ -20,12 +20,14 @@ undecodable bytes of a file name as ``\\xNN``, control characters as escapes.
 
 from __future__ import annotations
 
+import itertools
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.exercise.files import MAX_ENTRIES
 from kr210_sim.exercise.form import HANDLER, PLACES, SERVER, find_server, resolve_spec
 from kr210_sim.grading.record import printable
 from kr210_sim.sandbox.user_ik import split_spec
@@ -120,7 +122,8 @@ def _folder_student(folder: Path) -> Student:
     server = find_server(folder)
     if server is not None:  # a repository of the original exercise
         return _in_folder(name, server, HANDLER, folder)
-    entries = sorted(p for p in folder.iterdir() if not p.name.startswith((".", "_")))
+    listed = itertools.islice(folder.iterdir(), MAX_ENTRIES)  # a million files: bounded
+    entries = sorted(p for p in listed if not p.name.startswith((".", "_")))
     files = [p for p in entries if p.suffix == ".py" and p.is_file()]
     if len(files) == 1:
         return _in_folder(name, files[0], STUDENT_FUNCTION, folder)

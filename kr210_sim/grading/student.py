@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from kr210_sim.errors import IkSpecError
 from kr210_sim.grading.budget import FIRST, Budget, chunks, need_text, split
 from kr210_sim.grading.diagnose import diagnose
 from kr210_sim.grading.ikcheck import Case, check, fixed_cases, random_cases, summarise
@@ -73,10 +74,13 @@ FloatArray = npt.NDArray[np.float64]
 
 #: The grading process: :func:`main` with ``RECORD_FD PARENT_PID`` (the job on its stdin).
 #: ``-c``, not ``-m``: running this module as ``__main__`` after the package imported it gave
-#: every grading process a runpy RuntimeWarning. Its working folder is first on ``sys.path``,
-#: as for ``python -m kr210_sim``: a module SPEC is found where ``--ik`` finds it.
+#: every grading process a runpy RuntimeWarning. ``-P``: its working folder (often the class
+#: folder) is not on ``sys.path``, so no student's ``ruckig/`` or ``numpy.py`` is imported here,
+#: outside the jail; a module SPEC there is still found (located, not run) by
+#: :func:`~kr210_sim.sandbox.user_ik.find_module`.
 STUDENT_COMMAND = (
     sys.executable,
+    "-P",
     "-c",
     "import sys; from kr210_sim.grading.student import main; sys.exit(main(sys.argv[1:]))",
 )
@@ -391,7 +395,7 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         return record
     try:
         sandbox = student_sandbox(job)
-    except JailUnavailable as exc:
+    except (JailUnavailable, IkSpecError) as exc:  # IkSpecError: a file of its not read
         record["detail"] = str(exc)
         return record
     clock = StudentClock(sandbox, job.timeout)

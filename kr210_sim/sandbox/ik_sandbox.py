@@ -239,6 +239,7 @@ class IkSandbox:
         self.confinement: Confinement = confinement or Unconfined()
         files = spec_files(spec)
         self.readable = (root.resolve(),) if root is not None else files.readable
+        self._root = root
         self._search = files.search
         self.limits = limits or Limits()
         self.capture = capture
@@ -315,7 +316,7 @@ class IkSandbox:
         """
         self.close_process()
         if self.ros:  # as under rosrun, the files beside the script are in its working folder
-            seed_scratch(Path(self.spec.rpartition(":")[0]), self.scratch)
+            seed_scratch(Path(self.spec.rpartition(":")[0]), self.scratch, self._root)
         req_r, req_w = os.pipe()
         ans_r, ans_w = os.pipe()
         try:

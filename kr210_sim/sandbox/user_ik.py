@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.machinery
 import importlib.util
 import os
 import sys
@@ -35,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError, one_line
+from kr210_sim.exercise.files import sha256_regular
 from kr210_sim.exercise.form import is_ros_form, resolve_spec
 
 FloatArray = npt.NDArray[np.float64]
@@ -103,6 +105,36 @@ def _environment_roots() -> tuple[Path, ...]:
     return tuple({Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)})
 
 
+def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
+    """Where the module ``name`` would be imported from, found without running any of it: on
+    ``sys.path``, else in the working folder (which is not on the path of a grading process or
+    of ``python -m kr210_sim``: a class folder's ``ruckig/`` must not shadow ours). Each
+    package on the way is looked up, not imported (``importlib.util.find_spec`` imports a
+    dotted name's packages). None when it is not found."""
+    parts = name.split(".")
+    if not all(part.isidentifier() for part in parts):
+        return None
+    if parts[0] == __name__.split(".")[0]:
+        return importlib.util.find_spec(name)  # our own package (imported already)
+    for where in (None, [os.getcwd()]):
+        search: list[str] | None = where
+        found = None
+        for depth in range(1, len(parts) + 1):
+            try:
+                found = importlib.machinery.PathFinder.find_spec(".".join(parts[:depth]), search)
+            except (ImportError, ValueError, OSError):
+                found = None
+            if found is None:
+                break
+            search = list(found.submodule_search_locations or [])
+            if depth < len(parts) and not search:
+                found = None
+                break
+        if found is not None:
+            return found
+    return None
+
+
 def spec_files(spec: str) -> SpecFiles:
     """The files a SPEC's code is read from (see :class:`SpecFiles`), found as :func:`load_ik`
     would find them in this process. A module that cannot be found gives none (loading it then
@@ -123,10 +155,7 @@ def spec_files(spec: str) -> SpecFiles:
     top = where.split(".")[0]
     if not top or top == __name__.split(".")[0]:
         return SpecFiles((), ())
-    try:
-        found = importlib.util.find_spec(top)
-    except (ImportError, ValueError):
-        found = None
+    found = find_module(top)
     if found is None:
         return SpecFiles((), ())
     if found.submodule_search_locations:
@@ -193,6 +222,19 @@ def _import_file(path: Path, spec: str) -> Any:
     return module
 
 
+def _import_module(where: str) -> Any:
+    """Import the module ``where``, from the folder :func:`find_module` finds it in when that is
+    not on ``sys.path`` (the working folder), for the import only."""
+    extra = [str(p) for p in spec_files(f"{where}:f").search if str(p) not in sys.path]
+    sys.path[:0] = extra
+    try:
+        return importlib.import_module(where)
+    finally:
+        for folder in extra:
+            if folder in sys.path:
+                sys.path.remove(folder)
+
+
 @lru_cache(maxsize=16)
 def load_ik(spec: str) -> UserIk:
     """Load the IK function a SPEC names (once per process and SPEC).
@@ -223,7 +265,7 @@ def load_ik(spec: str) -> UserIk:
         if _is_path(where):
             module = _import_file(Path(where), spec)
         else:
-            module = importlib.import_module(where)
+            module = _import_module(where)
     except IkSpecError:
         raise
     except SyntaxError as exc:
@@ -278,17 +320,9 @@ def ik_identity(spec: str) -> dict[str, str | None]:
     if _is_path(where):
         source = where
     else:
-        try:
-            found = importlib.util.find_spec(where)
-        except (ImportError, ValueError):
-            found = None
+        found = find_module(where)
         source = found.origin if found is not None else None
-    digest = None
-    if source is not None:
-        try:
-            digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
-        except OSError:
-            digest = None
+    digest = sha256_regular(Path(source)) if source is not None else None
     return {"function": name, "sha256": digest}
 
 

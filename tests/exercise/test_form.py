@@ -3,6 +3,7 @@ folder seeded with the files beside it."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -68,3 +69,43 @@ def test_the_files_beside_the_script_are_copied_into_its_working_folder(tmp_path
         "data/dh.csv",
     ]
     assert (scratch / "T0_3.pkl").read_text() == "the script's own"
+
+
+def test_a_single_file_server_is_seeded_with_itself_alone(tmp_path: Path) -> None:
+    """A server handed in as one file of a class folder: its student's files are that file, so
+    neither a classmate's ``ik.py`` nor an instructor's 0600 file beside it is copied."""
+    script = write(tmp_path / "class" / "alice_server.py")
+    write(tmp_path / "class" / "ik.py", OURS)
+    key = write(tmp_path / "class" / "key.txt", "secret")
+    key.chmod(0o600)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert seed_scratch(script, scratch, root=script) == 1
+    assert [p.name for p in scratch.rglob("*")] == ["alice_server.py"]
+
+
+def test_a_folder_s_files_are_seeded_only_as_its_jail_could_read_them(
+    tmp_path: Path,
+) -> None:
+    """A student folder: its own files that its jail's user could read, not another user's 0600
+    file (the copy is the grader's, often root's), not a hard link (it may be anyone's file),
+    nothing outside the student's folder."""
+    folder = tmp_path / "class" / "bob"
+    script = write(folder / "scripts" / "IK_server.py")
+    write(folder / "scripts" / "dh.csv", "a,b")
+    write(folder / "README.md", "mine")
+    write(tmp_path / "class" / "carol" / "ik.py", OURS)
+    key = write(tmp_path / "key.txt", "secret")
+    key.chmod(0o600)
+    os.link(key, folder / "scripts" / "linked.txt")
+    write(folder / "scripts" / "mine.txt", "x").chmod(0o600)  # the grader's: the jail's user's
+    others = write(folder / "scripts" / "theirs.txt", "x")
+    others.chmod(0o600)
+    if os.geteuid() == 0:
+        os.chown(others, 54321, 54321)  # another user's: the jail's user may not read it
+    else:
+        others.chmod(0o000)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert seed_scratch(script, scratch, root=folder / "scripts") == 3
+    assert sorted(p.name for p in scratch.rglob("*")) == ["IK_server.py", "dh.csv", "mine.txt"]

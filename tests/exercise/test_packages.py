@@ -3,6 +3,9 @@ catkin packages in their repository, as genpy made them."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -134,3 +137,33 @@ def test_a_sandbox_may_read_the_definitions_and_no_more(tmp_path: Path) -> None:
         pkg / "srv",
         pkg / "package.xml",
     }
+
+
+def test_a_huge_package_xml_is_not_read_whole(tmp_path: Path) -> None:
+    """A sparse 3 GB ``package.xml`` beside a ``msg`` folder, in a process of at most 2 GB
+    of address space: named in one line, not read (it was read whole, 6.2 GB RSS)."""
+    pkg = _package(tmp_path)
+    with open(pkg / "package.xml", "r+b") as f:
+        f.truncate(3 << 30)
+    script = pkg / "scripts" / "IK_server.py"
+    script.write_text(SERVER)
+    code = (
+        "import resource, sys; from pathlib import Path\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))\n"
+        "from kr210_sim.errors import IkSpecError\n"
+        "from kr210_sim.exercise.packages import package_folders\n"
+        "try:\n    package_folders(Path(sys.argv[1]))\n"
+        "except IkSpecError as exc:\n    print(exc)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MUJOCO_GL="disable"),
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout == (
+        f"{pkg / 'package.xml'} holds 3,221,225,472 bytes, more than the 1,048,576 read: "
+        "not read (a package.xml is a few kB)\n"
+    )

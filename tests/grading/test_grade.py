@@ -534,3 +534,29 @@ def test_a_grading_process_s_pipes_may_reach_their_end_in_either_order() -> None
     pool._close(run)  # then the rest: the record pipe
     assert run.fds == [] and proc.stderr.closed
     proc.wait()
+
+
+def test_a_student_folder_named_like_a_module_we_import_runs_nowhere_outside_the_jail(
+    tmp_path: Path,
+) -> None:
+    """A class folder holding ``ruckig/__init__.py``, graded from inside it with
+    ``python -m kr210_sim grade .``: neither the command's process nor a grading process (which
+    would be working folder first on ``sys.path``) imports it."""
+    folder = tmp_path / "class"
+    (folder / "ruckig").mkdir(parents=True)
+    (folder / "correct.py").write_text(EXAMPLE.read_text())
+    marker = tmp_path / "imported"
+    (folder / "ruckig" / "__init__.py").write_text(
+        f"open({str(marker)!r}, 'a').write('x')\ndef solve(T, q):\n    return q\n"
+    )
+    tmp, out = tmp_path / "tmp", tmp_path / "out"
+    tmp.mkdir(), out.mkdir()
+    args = [".", "--cases", "0", "--cycles", "1", "--report", str(out / "grade.json")]
+    proc = _grade(args, folder, tmp)
+    stdout, stderr = proc.communicate(timeout=600)
+    assert not marker.exists(), stderr
+    assert "Traceback" not in stdout + stderr
+    report = json.loads((out / "grade.json").read_text())
+    verdicts = {s["name"]: s["verdict"] for s in report["students"]}
+    assert verdicts["correct"] == "pass"
+    assert verdicts["ruckig"] != "pass"

@@ -4,6 +4,8 @@ entries of a class folder that look like a submission but cannot be graded."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -206,3 +208,52 @@ def test_a_submission_file_that_leads_out_of_its_folder_is_not_graded(tmp_path: 
     assert (
         students["eve"].spec == f"{klass / 'eve' / 'ik.py'}:solve" and not students["eve"].problem
     )
+
+
+def test_a_folder_of_link_loops_is_scanned_in_a_bounded_number_of_steps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """200 links ``lNNN -> .`` in a student's folder: the server search follows none of them
+    (a 4-level glob through them opened 200**3 folders)."""
+    loops = tmp_path / "class" / "loops"
+    loops.mkdir(parents=True)
+    for i in range(200):
+        (loops / f"l{i:03d}").symlink_to(".")
+    (loops / "notes.txt").write_text("")
+    (tmp_path / "class" / "alice.py").write_text(EXAMPLE.read_text())
+    opened = []
+    real = os.scandir
+
+    def counted(path: object = ".") -> object:
+        opened.append(path)
+        if len(opened) > 1000:
+            raise RuntimeError("more than 1000 folders opened")
+        return real(path)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "scandir", counted)
+    found = find_students([str(tmp_path / "class")])
+    assert [s.name for s in found] == ["alice", "loops"]
+    assert found[1].problem.startswith("no ik.py in")
+    assert len(opened) < 20
+
+
+def test_a_fifo_named_like_a_script_does_not_block_the_start_up(tmp_path: Path) -> None:
+    """A FIFO ``scripts/IK_helper.py``: the roster reads only regular files (it opened this
+    one and waited for a writer forever)."""
+    student = tmp_path / "class" / "fifo"
+    (student / "scripts").mkdir(parents=True)
+    os.mkfifo(student / "scripts" / "IK_helper.py")
+    (tmp_path / "class" / "alice.py").write_text(EXAMPLE.read_text())
+    code = (
+        "import sys; from kr210_sim.grading.roster import find_students; "
+        "print(sorted(s.name for s in find_students([sys.argv[1]])))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "class")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "['alice', 'fifo']"

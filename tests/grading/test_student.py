@@ -19,6 +19,7 @@ from kr210_sim.grading.student import (
     StudentClock,
     StudentJob,
     _verdict,
+    grade_student,
     one_branch,
     replay_command,
     shell_word,
@@ -182,3 +183,23 @@ def test_a_ros_server_is_not_failed_for_being_one_branch_outside_the_exercise_s_
     assert _verdict(job, ik, run)[0] == "fail"  # our form: every case counts
     assert _verdict(job, {**ik, "one_branch": 3}, run, ros=True)[0] == "fail"  # one more miss
     assert _verdict(job, ik, {"successes": 0, "cycles_run": 1}, ros=True)[0] == "fail"
+
+
+def test_a_package_xml_too_large_to_read_is_the_student_s_error_in_one_line(
+    tmp_path: Path,
+) -> None:
+    """A 3 GB sparse ``package.xml`` beside a ``msg`` folder: the grading process reads none
+    of it, and the verdict says why (it was read whole, outside the jail)."""
+    pkg = tmp_path / "repo" / "kuka_arm"
+    (pkg / "msg").mkdir(parents=True)
+    (pkg / "scripts").mkdir()
+    with open(pkg / "package.xml", "wb") as f:
+        f.truncate(3 << 30)
+    server = pkg / "scripts" / "IK_server.py"
+    server.write_text("import rospy\ndef handle_calculate_IK(req):\n    return None\n")
+    record = grade_student(_job(tmp_path, f"{server}:handle_calculate_IK"))
+    assert record["verdict"] == "error"
+    assert record["detail"] == (
+        f"{pkg / 'package.xml'} holds 3,221,225,472 bytes, more than the 1,048,576 read: "
+        "not read (a package.xml is a few kB)"
+    )

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import math
+import os
 import pickle
 import re
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -301,3 +304,20 @@ def test_planner_with_our_ik_as_a_plug_in_plans_the_same_moves() -> None:
         np.testing.assert_array_equal(m1.trajectory.q_knots, m2.trajectory.q_knots)  # type: ignore[attr-defined]
     np.testing.assert_array_equal(a.approach_ptp.q_end, b.approach_ptp.q_end)
     assert plugged.user_ik is not None and plugged.user_ik.stats.calls > 10
+
+
+def test_the_identity_of_a_fifo_named_like_a_module_is_none_at_once(tmp_path: Path) -> None:
+    """An IK's identity hashes only a regular file: a FIFO ``ik.py`` has none (its whole-file
+    read waited for a writer forever)."""
+    os.mkfifo(tmp_path / "ik.py")
+    code = (
+        "import sys; from kr210_sim.sandbox.user_ik import ik_identity; "
+        "print(ik_identity(sys.argv[1]))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, f"{tmp_path / 'ik.py'}:solve"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.stdout == "{'function': 'solve', 'sha256': None}\n", done.stderr
