@@ -24,6 +24,7 @@ import kr210_sim.shadowed  # noqa: F401  (first: exits in one line when kr210_si
 from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError
+from kr210_sim.util import argtypes
 from kr210_sim.util.console import SafeStream
 from kr210_sim.util.interrupts import (
     end_start_up,
@@ -78,85 +79,13 @@ class _Version(argparse.Action):
         parser.exit()
 
 
-def _parsed(text: str, cast: type[int] | type[float], expected: str) -> Any:
-    try:
-        return cast(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
-
-
-def _check(ok: bool, message: str) -> None:
-    if not ok:
-        raise argparse.ArgumentTypeError(message)
-
-
-def _positive_int(text: str) -> int:
-    value: int = _parsed(text, int, "a whole number")
-    _check(value >= 1, f"must be at least 1, got {value}")
-    return value
-
-
 def _cycles(text: str) -> int:
     from kr210_sim.sim.runner import MAX_CYCLES
 
-    value = _positive_int(text)
-    _check(value <= MAX_CYCLES, f"at most {MAX_CYCLES} in one run (use evaluate), got {value}")
-    return value
-
-
-def _slot(text: str) -> int:
-    value: int = _parsed(text, int, "0-25")
-    _check(
-        0 <= value <= 25, f"must be 0 (random) or a slot 1-rows x columns (at most 25), got {value}"
+    value = argtypes.positive_int(text)
+    argtypes.check(
+        value <= MAX_CYCLES, f"at most {MAX_CYCLES} in one run (use evaluate), got {value}"
     )
-    return value
-
-
-def _fraction(text: str) -> float:
-    value: float = _parsed(text, float, "a number in [0, 1]")
-    _check(0.0 <= value <= 1.0, f"must be in [0, 1], got {value}")
-    return value
-
-
-def _count(text: str) -> int:
-    value: int = _parsed(text, int, "a whole number")
-    _check(value >= 0, f"must be >= 0, got {value}")
-    return value
-
-
-def _seed(text: str) -> int:
-    value: int = _parsed(text, int, "a whole number")
-    _check(value >= 0, f"must be >= 0, got {value}")
-    return value
-
-
-def _multiple_of_16(text: str) -> int:
-    value = _positive_int(text)
-    _check(value % 16 == 0, f"must be a multiple of 16, got {value}")
-    return value
-
-
-def _fps(text: str) -> int:
-    value = _positive_int(text)
-    _check(value <= 120, f"must be 1-120, got {value}")
-    return value
-
-
-def _seconds(text: str) -> float:
-    value: float = _parsed(text, float, "seconds")
-    _check(0.0 < value <= 86400.0, f"must be in (0, 86400] s, got {value}")
-    return value
-
-
-def _speed(text: str) -> float:
-    value: float = _parsed(text, float, "a number")
-    _check(0.0 < value <= 1000.0, f"must be in (0, 1000], got {value}")
-    return value
-
-
-def _port(text: str) -> int:
-    value: int = _parsed(text, int, "a port number")
-    _check(0 <= value <= 65535, f"must be 0-65535, got {value}")
     return value
 
 
@@ -184,7 +113,7 @@ def _add_cell_option(cmd: argparse.ArgumentParser, instead: str = "--scene") -> 
 
 def _add_seed_option(cmd: argparse.ArgumentParser, of: str) -> None:
     """``--seed`` (default 0); ``of`` completes its help ("seed of ...")."""
-    cmd.add_argument("--seed", type=_seed, default=0, help=f"seed of {of} (0)")
+    cmd.add_argument("--seed", type=argtypes.seed, default=0, help=f"seed of {of} (0)")
 
 
 def _add_report_option(cmd: argparse.ArgumentParser, default: Path, label: str) -> None:
@@ -193,11 +122,11 @@ def _add_report_option(cmd: argparse.ArgumentParser, default: Path, label: str) 
 
 
 def _add_min_success_option(cmd: argparse.ArgumentParser, default: float, help: str) -> None:
-    cmd.add_argument("--min-success", type=_fraction, default=default, help=help)
+    cmd.add_argument("--min-success", type=argtypes.fraction, default=default, help=help)
 
 
 def _add_workers_option(cmd: argparse.ArgumentParser, help: str) -> None:
-    cmd.add_argument("--workers", type=_positive_int, default=None, help=help)
+    cmd.add_argument("--workers", type=argtypes.positive_int, default=None, help=help)
 
 
 def _add_plots_option(cmd: argparse.ArgumentParser) -> None:
@@ -212,7 +141,7 @@ def _add_ik_options(
         cmd.add_argument("--ik", required=True, metavar="SPEC", help=ik)
     else:
         cmd.add_argument("--ik", default=None, metavar="SPEC", help=ik)
-    cmd.add_argument("--ik-timeout", type=_seconds, default=None, metavar="S", help=timeout)
+    cmd.add_argument("--ik-timeout", type=argtypes.seconds, default=None, metavar="S", help=timeout)
     _add_no_jail_option(cmd, "run --ik-timeout's process unjailed (says what is then unprotected)")
 
 
@@ -226,7 +155,7 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path) -> None:
     _add_seed_option(cmd, "the run's generator")
     cmd.add_argument(
         "--slot",
-        type=_slot,
+        type=argtypes.slot,
         default=0,
         help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
     )
@@ -255,9 +184,15 @@ def _add_video_options(cmd: argparse.ArgumentParser, camera: str, fps: str) -> N
         default=None,
         help=f"camera for the video ({camera}); repeat to tile views side by side",
     )
-    cmd.add_argument("--width", type=_multiple_of_16, default=None, help="video width [px] (640)")
-    cmd.add_argument("--height", type=_multiple_of_16, default=None, help="video height [px] (480)")
-    cmd.add_argument("--fps", type=_fps, default=None, help=f"video frames per simulated s ({fps})")
+    cmd.add_argument(
+        "--width", type=argtypes.multiple_of_16, default=None, help="video width [px] (640)"
+    )
+    cmd.add_argument(
+        "--height", type=argtypes.multiple_of_16, default=None, help="video height [px] (480)"
+    )
+    cmd.add_argument(
+        "--fps", type=argtypes.fps, default=None, help=f"video frames per simulated s ({fps})"
+    )
     cmd.add_argument(
         "--quality",
         choices=("fast", "medium", "high"),
@@ -276,11 +211,13 @@ def _add_run(sub: _Commands) -> None:
         "--record", type=Path, default=None, help="write a recording of the run (.npz) here"
     )
     cmd.add_argument(
-        "--record-rate", type=_fps, help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})"
+        "--record-rate",
+        type=argtypes.fps,
+        help=f"recorded states per simulated s ({DEFAULT_RECORD_RATE})",
     )
     cmd.add_argument(
         "--render-workers",
-        type=_positive_int,
+        type=argtypes.positive_int,
         default=None,
         help="processes rendering the video (one per core; 1: render in this process)",
     )
@@ -315,7 +252,7 @@ def _add_viewer_options(cmd: argparse.ArgumentParser) -> None:
         "--window", action="store_true", help="open a native window (needs a display)"
     )
     cmd.add_argument(
-        "--port", type=_port, default=0, help="web viewer port (0: first free from 8080)"
+        "--port", type=argtypes.port, default=0, help="web viewer port (0: first free from 8080)"
     )
     cmd.add_argument(
         "--host",
@@ -338,7 +275,7 @@ def _add_viewer_options(cmd: argparse.ArgumentParser) -> None:
         help="fast: no shadows, reflections, haze or post-processing (for software WebGL)",
     )
     cmd.add_argument(
-        "--speed", type=_speed, default=1.0, help="simulated seconds per wall second (1)"
+        "--speed", type=argtypes.speed, default=1.0, help="simulated seconds per wall second (1)"
     )
 
 
@@ -363,7 +300,7 @@ def _add_view(sub: _Commands) -> None:
 
 def _add_evaluate(sub: _Commands) -> None:
     cmd = sub.add_parser("evaluate", help="Monte-Carlo evaluation over many seeded episodes")
-    cmd.add_argument("--episodes", type=_positive_int, default=100, help="episodes (100)")
+    cmd.add_argument("--episodes", type=argtypes.positive_int, default=100, help="episodes (100)")
     _add_workers_option(cmd, "local processes (1), or Ray tasks in flight (the cluster's CPUs)")
     cmd.add_argument(
         "--backend",
@@ -419,7 +356,10 @@ def _add_ik_check(sub: _Commands) -> None:
         required=True,
     )
     cmd.add_argument(
-        "--cases", type=_count, default=1000, help="random poses on top of the fixed set (1000)"
+        "--cases",
+        type=argtypes.count,
+        default=1000,
+        help="random poses on top of the fixed set (1000)",
     )
     _add_seed_option(cmd, "the random poses")
     _add_report_option(cmd, DEFAULT_IK_REPORT, "JSON report path")
@@ -435,13 +375,19 @@ def _add_grade(sub: _Commands) -> None:
         metavar="SUBMISSION",
         help="a folder (each .py file or subfolder is a student), a .py file or a SPEC",
     )
-    cmd.add_argument("--cases", type=_count, default=1000, help="random ik-check poses (1000)")
+    cmd.add_argument(
+        "--cases", type=argtypes.count, default=1000, help="random ik-check poses (1000)"
+    )
     cmd.add_argument("--cycles", type=_cycles, default=10, help="cycles of each run (10)")
     _add_seed_option(cmd, "the poses and the runs")
-    cmd.add_argument("--timeout", type=_seconds, default=120.0, help="seconds per student (120)")
-    cmd.add_argument("--ik-timeout", type=_seconds, default=2.0, help="seconds per IK call (2)")
     cmd.add_argument(
-        "--memory", type=_positive_int, default=1024, help="MB of memory per student (1024)"
+        "--timeout", type=argtypes.seconds, default=120.0, help="seconds per student (120)"
+    )
+    cmd.add_argument(
+        "--ik-timeout", type=argtypes.seconds, default=2.0, help="seconds per IK call (2)"
+    )
+    cmd.add_argument(
+        "--memory", type=argtypes.positive_int, default=1024, help="MB of memory per student (1024)"
     )
     _add_workers_option(cmd, "students at once (one per core)")
     _add_min_success_option(cmd, 0.8, "the run's pass bar (0.8: 8 of 10)")
@@ -455,12 +401,14 @@ def _add_demos(sub: _Commands) -> None:
     cmd = sub.add_parser(
         "demos", help="record the scripted expert in the Gymnasium environment (HDF5 dataset)"
     )
-    cmd.add_argument("--episodes", type=_positive_int, default=10, help="episodes (10)")
+    cmd.add_argument("--episodes", type=argtypes.positive_int, default=10, help="episodes (10)")
     cmd.add_argument("--out", type=Path, default=DEFAULT_DEMOS, help=f"HDF5 file ({DEFAULT_DEMOS})")
     cmd.add_argument(
         "--control", choices=("joint", "cartesian"), default="joint", help="action space (joint)"
     )
-    cmd.add_argument("--seed", type=_seed, default=0, help="episode i is seeded seed + i (0)")
+    cmd.add_argument(
+        "--seed", type=argtypes.seed, default=0, help="episode i is seeded seed + i (0)"
+    )
     cmd.add_argument("--randomize", action="store_true", help="randomise the cylinders")
     cmd.set_defaults(func=commands.demos)
 
@@ -481,8 +429,8 @@ def _add_snapshot(sub: _Commands) -> None:
     cmd = sub.add_parser("snapshot", help="render a still of the cell offscreen")
     cmd.add_argument("--camera", default="overview", help="camera name (overview)")
     cmd.add_argument("--out", type=Path, default=Path("cell.png"), help="PNG path (cell.png)")
-    cmd.add_argument("--width", type=_positive_int, default=1280, help="width [px] (1280)")
-    cmd.add_argument("--height", type=_positive_int, default=720, help="height [px] (720)")
+    cmd.add_argument("--width", type=argtypes.positive_int, default=1280, help="width [px] (1280)")
+    cmd.add_argument("--height", type=argtypes.positive_int, default=720, help="height [px] (720)")
     _add_cell_option(cmd, "the committed scene")
     cmd.set_defaults(func=commands.snapshot)
 

@@ -1,5 +1,5 @@
 """Plumbing every command shares: where files live, atomic outputs, the console, signals, progress
-lines."""
+lines, the values the command line takes."""
 
 from __future__ import annotations
 
