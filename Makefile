@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 EXTRAS ?= test,gym,ros
 STAMP := $(VENV)/.installed-$(EXTRAS)
 
-.PHONY: run test test-perturbed lint bench scene video evaluate docs clean
+.PHONY: run test test-perturbed lint bench scene video evaluate docs pictures clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -43,7 +43,19 @@ scene: $(STAMP)
 	$(PY) -m kr210_sim build-meshes
 	$(PY) -m kr210_sim build-scene
 
-docs: $(STAMP)
+# The documentation site (Sphinx, MyST Markdown, autodoc, sphinx-argparse) into docs/_build/html;
+# warnings are errors (a broken link or reference fails the build).
+DOCS_STAMP := $(VENV)/.installed-docs-$(EXTRAS)
+$(DOCS_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet -e '.[$(EXTRAS),docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
+	@echo "the site: docs/_build/html/index.html"
+
+# The README's and the site's pictures, made by the project.
+pictures: $(STAMP)
 	$(PY) -m kr210_sim.media.pictures
 	$(PY) -m kr210_sim snapshot --camera overview --out docs/cell.png
 
@@ -54,4 +66,4 @@ evaluate: $(STAMP)
 	$(PY) -m kr210_sim evaluate --episodes 1000 --workers 2 --randomize $(ARGS)
 
 clean:
-	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache *.egg-info
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache *.egg-info docs/_build

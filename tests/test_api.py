@@ -22,7 +22,9 @@ from kr210_sim.score.report import strip_wall
 from kr210_sim.score.result import CycleResult
 from kr210_sim.sim.runner import Runner
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+#: The how-to page of the Python API (what was the README's "Use it from Python").
+PYTHON_HOW_TO = ROOT / "docs" / "how-to" / "python.md"
 
 
 def test_run_returns_what_the_cli_writes(
@@ -181,17 +183,16 @@ def test_importing_the_package_loads_no_simulation_code() -> None:
     assert out.split("\n")[:2] == ["[]", "True EvalConfig"]
 
 
-def _readme_python_blocks() -> list[str]:
-    text = README.read_text()
-    section = text.split("## Use it from Python", 1)[1].split("\n## ", 1)[0]
-    return re.findall(r"```python\n(.*?)```", section, flags=re.S)
+def _how_to_python_blocks() -> list[str]:
+    text = PYTHON_HOW_TO.read_text()
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
 
 
 def test_the_readmes_run_signature_names_real_parameters_scene_and_cell() -> None:
-    """The README's one-line list of ``kr210_sim.run``'s parameters: each is one, with ``cell``."""
+    """The how-to's one-line list of ``kr210_sim.run``'s parameters: each is one, with ``cell``."""
     import inspect
 
-    listed = re.findall(r"`kr210_sim\.run\((cycles[^)]*)\)`", README.read_text())
+    listed = re.findall(r"`kr210_sim\.run\((cycles[^)]*)\)`", PYTHON_HOW_TO.read_text())
     assert len(listed) == 1
     names = [n.strip() for n in listed[0].split(",")]
     assert set(names) <= set(inspect.signature(kr210_sim.run).parameters)
@@ -200,8 +201,8 @@ def test_the_readmes_run_signature_names_real_parameters_scene_and_cell() -> Non
 
 @pytest.mark.slow
 def test_the_readme_example_runs_as_written(tmp_path: Path) -> None:
-    blocks = _readme_python_blocks()
-    assert blocks, "the README has a 'Use it from Python' section with Python blocks"
+    blocks = _how_to_python_blocks()
+    assert blocks, "docs/how-to/python.md has Python blocks"
     for block in blocks:
         if "gymnasium" in block:
             pytest.importorskip("gymnasium")
@@ -253,7 +254,7 @@ def test_grade_gives_the_verdicts_of_the_command(
 ) -> None:
     folder = tmp_path / "class"
     folder.mkdir()
-    src = (README.parent / "examples" / "ik_dh.py").read_text()
+    src = (ROOT / "examples" / "ik_dh.py").read_text()
     (folder / "correct.py").write_text(src)
     (folder / "no_offset.py").write_text(src.replace("\nA3 = -0.054", "\nA3 = 0.0"))
     (folder / "quits.py").write_text("import os\n\ndef solve(T, q):\n    os._exit(3)\n")

@@ -2,7 +2,7 @@
 
 Both come from one simulated cycle (the published cell, slot 5, seed 0), filmed from the
 ``hero`` camera: :func:`grasp_states` records the states, :func:`hero_still` renders the moment
-the fingers have closed, :func:`grasp_gif` the seconds around it. ``make docs`` (or
+the fingers have closed, :func:`grasp_gif` the seconds around it. ``make pictures`` (or
 ``python -m kr210_sim.media.pictures``) writes ``docs/hero.png`` and ``docs/grasp.gif``.
 """
 

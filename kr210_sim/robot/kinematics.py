@@ -19,7 +19,7 @@ Conventions:
   the URDF ``gripper_link`` frame in the ``base_link`` frame.
 * ``inverse`` returns each branch with joints 1, 4 and 6 wrapped to (-pi, pi] when that is inside
   the limits, otherwise shifted by 2 pi into them; branches that break a limit are dropped.
-* At the wrist singularity (|sin q5| < 1e-9) only q4 + q6 (or q4 - q6) is defined: ``inverse``
+* At the wrist singularity (``|sin q5| < 1e-9``) only q4 + q6 (or q4 - q6) is defined: ``inverse``
   sets q4 = 0, ``nearest`` keeps q4 at the reference's value.
 * ``nearest`` measures distance in time: sum of ((q - q_ref) / v_max)^2 over the joints, and
   picks, for joints 1, 4 and 6, the 2 pi twin inside the limits closest to the reference.
