@@ -29,10 +29,14 @@ from kr210_sim.exercise.messages import (
     Pose,
     Quaternion,
 )
-from kr210_sim.robot.description import ARM_JOINTS
 from kr210_sim.robot.quaternions import quaternion_from_rotation
 
 FloatArray = npt.NDArray[np.float64]
+
+#: The arm's joints as the URDF names them (an answer's angles are named by them). Not imported
+#: from :mod:`kr210_sim.robot.description`: a jail holds none of the robot's description
+#: (:mod:`kr210_sim.sandbox.harness`).
+ARM_JOINTS: tuple[str, ...] = tuple(f"joint_{i}" for i in range(1, 7))
 
 #: Most positions read from one point (the guard then says "returned shape (n,)").
 MAX_POSITIONS = 64

@@ -1,8 +1,9 @@
 """One named mistake (:class:`Finding`), the record tests the diagnoses share, and the
 findings read from the answers' own figures alone: the servers' ``name_error``, ``complex``,
 ``unevaluated`` and ``python2`` (:func:`server_mistakes`) and ``singular_wrist``
-(:func:`singular_wrist`). :mod:`kr210_sim.grading.diagnose` names them with the others; its module
-doc says what each code shows.
+(:func:`singular_wrist`); and ``grader_code`` (:func:`grader_code`), from the imports of the
+grader's own code that the student's jail refused. :mod:`kr210_sim.grading.diagnose` names them
+with the others; its module doc says what each code shows.
 """
 
 from __future__ import annotations
@@ -127,3 +128,34 @@ def server_mistakes(records: Sequence[dict[str, Any]], notes: Sequence[str]) -> 
             )
         )
     return found
+
+
+#: What the grader's own modules are, by name, for :func:`grader_code`'s sentence.
+_KINDS = (
+    (
+        ("kr210_sim.robot.kinematics", "kr210_sim.robot.ik_scalar", "kr210_sim.robot._ik_native"),
+        "solver",
+    ),
+    (("kr210_sim.plan",), "planner"),
+    (("kr210_sim.cell", "kr210_sim.scenes", "kr210_sim.assets"), "cells"),
+)
+
+
+def grader_code(blocked: Sequence[str]) -> Finding | None:
+    """``grader_code``: the student's code tried to import the grader's own modules (its
+    solver, planner, cells), which its jail does not hold; the imports were refused and are
+    named here, whatever the student's code then did (None when it tried none)."""
+    if not blocked:
+        return None
+    kinds = [
+        kind
+        for prefixes, kind in _KINDS
+        if any(b == p or b.startswith(p + ".") for b in blocked for p in prefixes)
+    ]
+    what = ", ".join(kinds[:-1]) + " and " + kinds[-1] if len(kinds) > 1 else (kinds or ["code"])[0]
+    names = ", ".join(blocked[:3]) + (f" and {len(blocked) - 3} more" if len(blocked) > 3 else "")
+    return Finding(
+        "grader_code",
+        f"imported the grader's own {what} ({names}): refused, as the jail holds only the "
+        "harness; the answers must come from the student's own IK",
+    )

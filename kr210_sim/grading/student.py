@@ -44,6 +44,7 @@ import numpy.typing as npt
 from kr210_sim.errors import IkSpecError
 from kr210_sim.grading.budget import FIRST, Budget, chunks, need_text, split
 from kr210_sim.grading.diagnose import diagnose
+from kr210_sim.grading.finding import grader_code
 from kr210_sim.grading.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.grading.record import VERDICTS, blank_record, seal
 from kr210_sim.robot.description import load_robot
@@ -500,6 +501,9 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
         record["diagnosis"] = [f.to_dict() for f in found]
         if job.plots:
             record["plots"] = _plots(Path(job.plots), records)
+    if (taken := grader_code(sandbox.blocked)) is not None:  # named in the verdict
+        record["diagnosis"] = [taken.to_dict(), *record.get("diagnosis", [])]
+        record["detail"] += f"; {taken.text}"
     out, err = sandbox.stdout, sandbox.stderr
     record["output"] = {
         "bytes": out.total + err.total,

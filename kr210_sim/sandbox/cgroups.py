@@ -5,7 +5,8 @@ with the ``pids`` controller (a sibling of this process's own group, as a deskto
 delegates them), else the cgroup v1 ``pids`` hierarchy (a child of this process's group, as in a
 container run as root). Each jailed process tree gets a :class:`Group` of its own there:
 ``pids.max`` processes at most (a fork past it fails with ``EAGAIN``), one core's worth of
-CPU where the ``cpu`` controller is at hand too, and a bound on the memory of all its processes
+CPU at a quarter of the grader's own processes' weight (:data:`CPU_WEIGHT`) where the ``cpu``
+controller is at hand too, and a bound on the memory of all its processes
 and the files of its tmpfs together where the ``memory`` controller is (past it the kernel
 reclaims, then kills the group's largest process; no swap). The group is read from outside the
 jail at the end (forks refused, the most processes at once, CPU throttling, memory peak and
@@ -30,6 +31,12 @@ from pathlib import Path
 PREFIX = "kr210-jail-"
 #: CPU period of the one-core quota [µs].
 CPU_PERIOD_US = 100_000
+#: A jail's CPU weight beside the grader's own processes, as a fraction of theirs: under
+#: contention a jail's processes (a student's threads on every core) yield to the grading
+#: processes that simulate and check (an honest neighbour's run) four to one, while the jails
+#: share what is left evenly among themselves (cgroup v2 ``cpu.weight`` 25 of the default 100,
+#: v1 ``cpu.shares`` 256 of 1024).
+CPU_WEIGHT = 0.25
 
 
 @dataclass(frozen=True, slots=True)
@@ -214,9 +221,13 @@ class Group:
                 quota = int(cores * CPU_PERIOD_US)
                 if place.version == 2:
                     (cpu / "cpu.max").write_text(f"{quota} {CPU_PERIOD_US}\n")
+                    weight = ("cpu.weight", round(100 * CPU_WEIGHT))
                 else:
                     (cpu / "cpu.cfs_period_us").write_text(f"{CPU_PERIOD_US}\n")
                     (cpu / "cpu.cfs_quota_us").write_text(f"{quota}\n")
+                    weight = ("cpu.shares", round(1024 * CPU_WEIGHT))
+                with contextlib.suppress(OSError):  # (a kernel without weights: the quota holds)
+                    (cpu / weight[0]).write_text(f"{weight[1]}\n")
                 self.cpu = cpu
             self.memory: Path | None = None
             if place.memory is not None and memory_mb is not None:

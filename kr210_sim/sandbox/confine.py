@@ -31,6 +31,10 @@ class Launch:
         readable: The user's own files and folders it must be able to read (the SPEC's file or
             folder, a module's file or package): in a jail, the only ones of the user's.
         capture: Its stdout and stderr go to pipes (read by the sandbox) rather than to ours.
+        grader_code: The SPEC names a module of kr210_sim itself (``--ik
+            kr210_sim.robot.kinematics:nearest``, chosen by whoever runs the grader): a jail
+            then holds the whole package, not only its harness
+            (:mod:`kr210_sim.sandbox.harness`).
     """
 
     argv: tuple[str, ...]
@@ -39,6 +43,7 @@ class Launch:
     pass_fds: tuple[int, ...]
     readable: tuple[Path, ...]
     capture: bool
+    grader_code: bool = False
 
 
 class Confinement(Protocol):
@@ -72,6 +77,12 @@ class Confinement(Protocol):
     @property
     def process_rlimit(self) -> int | None:
         """``RLIMIT_NPROC`` the user's process must set itself, or None."""
+        ...
+
+    @property
+    def harness_only(self) -> bool:
+        """Only kr210_sim's harness is importable by the user's process
+        (:mod:`kr210_sim.sandbox.harness`): it must refuse and report the rest."""
         ...
 
     def returncode(self, code: int | None) -> int | None:
@@ -116,6 +127,7 @@ class Unconfined:
     name = "none"
     own_pids = False
     process_rlimit = None
+    harness_only = False
 
     def popen(self, launch: Launch) -> subprocess.Popen[bytes]:
         """Start ``launch`` in a session of its own."""

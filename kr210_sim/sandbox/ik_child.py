@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError
+from kr210_sim.sandbox import harness
 from kr210_sim.sandbox.ik_wire import receive, send, short
 from kr210_sim.sandbox.user_ik import UserIk, load_ik
 from kr210_sim.util.processes import die_with_parent
@@ -150,24 +151,34 @@ def _load_failure(exc: IkSpecError) -> dict[str, Any]:
     return {"error": short(str(exc))}
 
 
+def _blocked(guard: harness.Guard | None) -> dict[str, Any]:
+    """``{"blocked": [names]}``: the imports of the grader's own code the guard refused since
+    the last message (nothing when none or no guard)."""
+    new = guard.news() if guard is not None else []
+    return {"blocked": [short(n, 200) for n in new]} if new else {}
+
+
 def serve(argv: list[str]) -> int:
     """The user's process: set the limits, import the SPEC, answer calls until the pipe closes.
 
     Args:
         argv: ``SPEC REQUEST_FD ANSWER_FD PARENT_PID LIMITS_JSON`` (PARENT_PID 0: do not check
-            the parent's pid, only die with it).
+            the parent's pid, only die with it; LIMITS_JSON's ``harness``: refuse and report
+            imports of the grader's own code, :class:`~kr210_sim.sandbox.harness.Guard`).
     """
-    spec, req, ans, parent, limits = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
-    set_limits(json.loads(limits), parent)
+    spec, req, ans, parent, given = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
+    limits = json.loads(given)
+    set_limits(limits, parent)
+    guard = harness.install() if limits.get("harness") else None
     try:
         user = load_ik(spec)
     except MemoryError:
         send(ans, {"memory": True})
         return 1
     except IkSpecError as exc:
-        send(ans, _load_failure(exc))
+        send(ans, {**_load_failure(exc), **_blocked(guard)})
         return 1
-    send(ans, {"ready": True, "batch": user.batch is not None})
+    send(ans, {"ready": True, "batch": user.batch is not None, **_blocked(guard)})
     while True:
         message = receive(req, None)
         if not isinstance(message, dict):
@@ -183,7 +194,7 @@ def serve(argv: list[str]) -> int:
         notes = user.notes() if user.notes is not None else []
         if notes:
             answer["notes"] = [short(n, 400) for n in notes[:MAX_NOTES]]
-        send(ans, {"n": message.get("n"), **answer})
+        send(ans, {"n": message.get("n"), **answer, **_blocked(guard)})
         if "exit" in answer or "memory" in answer:
             code = answer.get("exit")
             os._exit(code if isinstance(code, int) else 1)

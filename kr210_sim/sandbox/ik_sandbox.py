@@ -52,13 +52,14 @@ import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, IkSpecError
 from kr210_sim.exercise.form import is_ros_form, resolve_spec, seed_scratch
+from kr210_sim.sandbox.captured import KEPT_BYTES, Captured, drain  # noqa: F401 (re-exported)
 from kr210_sim.sandbox.confine import Confinement, Launch, Unconfined
 from kr210_sim.sandbox.ik_wire import Oversized, answer_of, oversized, receive, refusal, send, short
 from kr210_sim.sandbox.user_ik import UserIk, load_ik, spec_file, spec_files
@@ -77,8 +78,6 @@ FILE_LIMIT_MB = 64
 OPEN_FILES = 256
 #: Time the user's module has to import (bounded by ``deadline``) [s].
 LOAD_TIMEOUT = 30.0
-#: Bytes of output kept per process: the first and the last half of it.
-KEPT_BYTES = 32_768
 #: Most notes kept per sandbox (see :attr:`IkSandbox.notes`).
 MAX_NOTES = 200
 #: Time a ROS-form server's script has to reach ``rospy.spin()`` under ``--ik`` (its sympy
@@ -144,44 +143,12 @@ class Limits:
             raise ConfigError(f"memory_mb must be at least {MIN_MEMORY_MB}, got {self.memory_mb}")
 
 
-class Captured:
-    """Bounded output of a process: the first and last ``keep // 2`` bytes and the byte count."""
-
-    def __init__(self, keep: int = KEPT_BYTES) -> None:
-        self.keep = keep
-        self.head = bytearray()
-        self.tail = bytearray()
-        self.total = 0
-        self._lock = threading.Lock()
-
-    def add(self, chunk: bytes) -> None:
-        """Take ``chunk`` (read from the process)."""
-        half = self.keep // 2
-        with self._lock:
-            self.total += len(chunk)
-            room = half - len(self.head)
-            if room > 0:
-                self.head += chunk[:room]
-                chunk = chunk[room:]
-            if chunk:
-                self.tail += chunk
-                del self.tail[:-half]
-
-    def text(self) -> str:
-        """What was kept, with a line saying how much was left out in the middle."""
-        with self._lock:
-            head, tail = bytes(self.head), bytes(self.tail)
-            dropped = self.total - len(head) - len(tail)
-        out = head.decode("utf-8", "replace")
-        if dropped > 0:
-            out += f"\n[... {dropped} bytes left out ...]\n"
-        return out + tail.decode("utf-8", "replace")
-
-
-def _drain(stream: IO[bytes], sink: Captured) -> None:
-    with contextlib.suppress(OSError, ValueError):
-        while chunk := stream.read1(65536):  # type: ignore[attr-defined]
-            sink.add(chunk)
+def _grader_module(spec: str) -> bool:
+    """Whether ``spec`` names a module of kr210_sim itself (not a file)."""
+    where = spec.rpartition(":")[0]
+    if where.endswith(".py") or "/" in where or os.sep in where:
+        return False
+    return where.partition(".")[0] == __name__.partition(".")[0]
 
 
 def _seconds(s: float) -> str:
@@ -254,6 +221,11 @@ class IkSandbox:
         self.faults: list[str] = []
         #: What Python 2 semantics changed in a ROS-form server's code (its notes, in order).
         self.notes: list[str] = []
+        #: The grader's own modules the user's code tried to import in its jail, refused
+        #: (:class:`~kr210_sim.sandbox.harness.Guard`), each once, in order.
+        self.blocked: list[str] = []
+        #: The SPEC names a module of kr210_sim itself: its jail holds the whole package.
+        self.grader_code = _grader_module(spec)
         self._own_scratch = scratch is None
         self.scratch = Path(tempfile.mkdtemp(prefix="kr210_ik_")) if scratch is None else scratch
         self.scratch.mkdir(parents=True, exist_ok=True)
@@ -293,6 +265,7 @@ class IkSandbox:
             "cpu_s": self.limits.cpu_s,
             "open_files": self.limits.open_files,
             "processes": self.confinement.process_rlimit,
+            "harness": self._harness_only(),
         }
         parent = 0 if self.confinement.own_pids else os.getpid()
         argv: tuple[str, ...] = (sys.executable, "-B", "-m", CHILD_MODULE, self._child_spec())
@@ -304,7 +277,23 @@ class IkSandbox:
             pass_fds=(req_r, ans_w),
             readable=self.readable,
             capture=self.capture,
+            grader_code=self.grader_code,
         )
+
+    def _harness_only(self) -> bool:
+        """Whether the user's process holds only kr210_sim's harness (and must refuse and
+        report imports of the rest)."""
+        return bool(getattr(self.confinement, "harness_only", False)) and not self.grader_code
+
+    def _keep_blocked(self, message: dict[str, Any]) -> None:
+        """Keep the names of the grader's modules a message says were refused."""
+        names = message.get("blocked")
+        if not isinstance(names, list):
+            return
+        for name in names[:MAX_NOTES]:
+            text = short(str(name), 200)
+            if text not in self.blocked and len(self.blocked) < MAX_NOTES:
+                self.blocked.append(text)
 
     def start(self) -> None:
         """Start the process and import the user's module.
@@ -337,7 +326,7 @@ class IkSandbox:
         if self.capture:
             assert proc.stdout is not None and proc.stderr is not None
             for stream, sink in ((proc.stdout, self.stdout), (proc.stderr, self.stderr)):
-                t = threading.Thread(target=_drain, args=(stream, sink), daemon=True)
+                t = threading.Thread(target=drain, args=(stream, sink), daemon=True)
                 t.start()
                 self._threads.append(t)
         limit = self.limits.load_timeout
@@ -346,6 +335,8 @@ class IkSandbox:
         except TimeoutError:
             self._fault("timeout", f"importing it took longer than {_seconds(self._limit(limit))}")
         message = got if isinstance(got, dict) else None
+        if message is not None:
+            self._keep_blocked(message)
         if message is not None and message.get("ready"):
             return
         if message is not None and "error" in message:
@@ -436,6 +427,7 @@ class IkSandbox:
             if got is None or "exit" in got or got.get("memory"):
                 self._died("during a call", got)
             if got.get("n") == self.calls:
+                self._keep_blocked(got)
                 notes = got.get("notes")
                 if isinstance(notes, list) and len(self.notes) < MAX_NOTES:
                     self.notes += [short(str(n), 400) for n in notes[:MAX_NOTES]]

@@ -14,16 +14,22 @@ What the process gets (:meth:`Jail.command` builds bubblewrap's command line):
   (``/proc/sys``, ``sysrq-trigger``, ...) read-only and the kernel's memory and keys hidden;
 * a root of nothing but read-only binds of what Python needs: ``/usr`` and the system's library
   folders, ``/etc/ld.so.cache``, the interpreter's prefixes (its standard library, the
-  environment's packages), kr210_sim's own package folder and data folders (not the checkout they
-  sit in: an editable install's repository stays outside) and the user's own files
-  (:attr:`~kr210_sim.sandbox.confine.Launch.readable`: in ``grade`` the student's own file or
-  folder, never the class folder);
+  environment's packages); of kr210_sim only its harness, file by file over an empty folder at
+  the package's path (:mod:`kr210_sim.sandbox.harness`: the wire, the loader, the exercise's ROS
+  shims; not the kinematics, the planner, the cells or the scenes, unless the SPEC names a module
+  of the package itself); and the user's own files, each regular file by itself
+  (:func:`~kr210_sim.sandbox.jail_files.user_files`: in ``grade`` the student's own file or
+  folder, never the class folder; no link followed, no hard link to a file the student could
+  not read);
 * writable: only its scratch folder, a tmpfs of :data:`SCRATCH_MB` at the scratch folder's path
   into which the files lying there when it starts are copied (the host's folder is not
   written), and a ``/dev/shm`` of :data:`SHM_MB`; all of it is gone when the process ends
-  (``/tmp`` holds only the folders that lead to what is bound there, and is read-only);
+  (``/tmp`` holds only the folders that lead to what is bound there, and is read-only; ``/dev``
+  holds bubblewrap's few device nodes and is read-only too);
 * an environment of :data:`KEPT_ENV` only (the caller's other variables, tokens and keys among
-  them, stay outside);
+  them, stay outside); bubblewrap itself (the jail's pid 1) starts with an empty environment and
+  reads its options from a file (``--args``), so ``/proc/1/environ`` and ``/proc/1/cmdline``
+  show nothing of the grader;
 * at most :data:`PROCESS_LIMIT` processes, kept by the control groups' pids controller where
   this process may make groups (:mod:`kr210_sim.sandbox.cgroups`), with one core's worth of CPU
   where the cpu controller is there too, and ``memory_mb`` plus its tmpfs sizes of memory for
@@ -51,17 +57,16 @@ import select
 import signal
 import site
 import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kr210_sim.errors import ConfigError
-from kr210_sim.sandbox import procfs, seccomp
+from kr210_sim.sandbox import harness, procfs, seccomp
 from kr210_sim.sandbox.bwrap import NAMESPACES, Bwrap, find_bwrap
 from kr210_sim.sandbox.cgroups import Group, Limiter
 from kr210_sim.sandbox.confine import Launch
+from kr210_sim.sandbox.jail_files import covered, package_roots, python_roots, user_files, user_site
 from kr210_sim.util import paths
 
 #: Most processes a jail may hold at once (a fork past it fails with EAGAIN).
@@ -151,64 +156,6 @@ def unjailed() -> dict[str, Any]:
     return {"confinement": "none", "not_protected": f"the code {NOT_PROTECTED}"}
 
 
-def _covered(path: Path, roots: list[Path]) -> bool:
-    return any(path == r or path.is_relative_to(r) for r in roots)
-
-
-def python_roots() -> list[Path]:
-    """The folders this interpreter runs from: its prefixes (standard library, the environment's
-    packages), the folder of the binary it resolves to, and the folders its site-packages'
-    ``.pth`` files add to the path (packages installed elsewhere, editable installs)."""
-    found = [sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix]
-    found.append(str(Path(sys.executable).resolve().parent))
-    found += [str(p) for p in _pth_folders()]
-    return list(dict.fromkeys(Path(p).resolve() for p in found if p))
-
-
-def _pth_folders() -> list[Path]:
-    """The existing folders named by the ``.pth`` files of the site-packages (their lines that
-    are paths, as ``site`` reads them; ``import`` lines are code, not folders), but one holding
-    kr210_sim itself (an editable install's checkout)."""
-    found: list[Path] = []
-    for where in site.getsitepackages():
-        for pth in sorted(Path(where).glob("*.pth")):
-            try:
-                lines = pth.read_text(errors="replace").splitlines()
-            except OSError:
-                continue
-            for line in lines:
-                line = line.strip()
-                if not line or line.startswith(("#", "import ", "import\t")):
-                    continue
-                folder = (Path(where) / line).resolve()
-                ours = paths.PACKAGE_DIR.resolve().is_relative_to(folder)  # a checkout: its
-                if folder.is_dir() and not ours and str(folder) in map(_resolved, sys.path):
-                    found.append(folder)  # package and data are bound alone (package_roots)
-    return found
-
-
-def _resolved(entry: str) -> str:
-    try:
-        return str(Path(entry).resolve()) if entry else ""
-    except (OSError, ValueError):
-        return ""
-
-
-def package_roots() -> list[Path]:
-    """kr210_sim's own folders: the package and its data (``assets/``, ``scenes/``), not the
-    checkout they may sit in."""
-    found = [paths.PACKAGE_DIR, paths.ROOT / "assets", paths.ROOT / "scenes"]
-    return list(dict.fromkeys(p.resolve() for p in found if p.exists()))
-
-
-def _user_site() -> Path | None:
-    """The user's own site-packages, when this interpreter uses it."""
-    if not site.ENABLE_USER_SITE:
-        return None
-    where = Path(site.getusersitepackages())
-    return where.resolve() if where.is_dir() and str(where) in sys.path else None
-
-
 def jail_environment(env: dict[str, str]) -> dict[str, str]:
     """The part of ``env`` that reaches the jail (:data:`KEPT_ENV`, ``LC_*``, ``KR210_*``), with
     its own PATH."""
@@ -244,6 +191,8 @@ class Jail:
     name = "bwrap"
     #: The user's process sees pids of its own (PARENT_PID means nothing there).
     own_pids = True
+    #: Only kr210_sim's harness is there to import (:mod:`kr210_sim.sandbox.harness`).
+    harness_only = True
 
     def __init__(
         self,
@@ -339,22 +288,43 @@ class Jail:
 
     # ------------------------------------------------------------------ the command
     def _binds(self, launch: Launch) -> list[Path]:
-        """The folders and files bound read-only at their own paths (outside ``/usr``)."""
-        wanted = [*python_roots(), *package_roots(), *map(Path, launch.readable)]
-        if (user := _user_site()) is not None:
+        """The folders bound read-only at their own paths (outside ``/usr``): the interpreter's,
+        and kr210_sim's whole only for a SPEC of its own (:attr:`Launch.grader_code`)."""
+        wanted = [*python_roots()]
+        if launch.grader_code:
+            wanted += package_roots()
+        if (user := user_site()) is not None:
             wanted.append(user)
         roots = [Path("/usr")]
         out: list[Path] = []
         for p in wanted:
             p = p.resolve()
-            if p == Path("/"):
-                raise ConfigError(
-                    "cannot jail code read from / (the jail would see every file): move it "
-                    "into a folder of its own"
-                )
-            if p.exists() and not _covered(p, roots + out):
+            if p.exists() and not covered(p, roots + out):
                 out = [q for q in out if not q.is_relative_to(p)] + [p]
         return out
+
+    def _package(self, launch: Launch) -> list[str]:
+        """The options that show kr210_sim's harness alone (:mod:`kr210_sim.sandbox.harness`):
+        an empty read-only folder at the package's path (over an installed package's), its
+        files bound into it one by one."""
+        if launch.grader_code:
+            return []
+        package = paths.PACKAGE_DIR.resolve()
+        opts = ["--size", str(1 << 20), "--tmpfs", str(package)]
+        for p in harness.files(package):
+            opts += ["--ro-bind", str(p), str(p)]
+        return [*opts, "--remount-ro", str(package)]
+
+    def _user(self, launch: Launch) -> list[str]:
+        """The options that show the user's own files, file by file
+        (:func:`~kr210_sim.sandbox.jail_files.user_files`); what was left out is noted."""
+        shown = user_files(launch.readable)
+        for line in shown.findings():
+            self._note(line)
+        opts: list[str] = []
+        for f in shown.files:
+            opts += ["--ro-bind", str(f), str(f)]
+        return opts
 
     def _seeds(self, scratch: Path) -> tuple[list[str], list[int]]:
         """The options that copy the scratch folder's files into the jail's, and the fds they
@@ -383,14 +353,23 @@ class Jail:
     def command(
         self, launch: Launch, info_fd: int, seeds: list[str], seccomp_fd: int | None = None
     ) -> list[str]:
-        """bubblewrap's command line for ``launch`` (see the module doc): ``info_fd`` gets its
+        """bubblewrap's whole command line for ``launch`` (:meth:`options`, then the command)."""
+        options = self.options(launch, info_fd, seeds, seccomp_fd)
+        return [str(self.bwrap.path), *options, "--", *launch.argv]
+
+    def options(
+        self, launch: Launch, info_fd: int, seeds: list[str], seccomp_fd: int | None = None
+    ) -> list[str]:
+        """bubblewrap's options for ``launch`` (see the module doc): ``info_fd`` gets its
         init's pid, ``seeds`` copy the scratch folder's files in, ``seccomp_fd`` holds the
-        filter (:func:`~kr210_sim.sandbox.seccomp.program`; None: none)."""
+        filter (:func:`~kr210_sim.sandbox.seccomp.program`; None: none). :meth:`popen` hands
+        them to bubblewrap through a file (``--args``), not on its command line, which the
+        jail's ``/proc/1/cmdline`` shows."""
         scratch = str(launch.scratch)
-        argv = [str(self.bwrap.path), *NAMESPACES, "--uid", str(self.uid), "--gid", str(self.gid)]
+        argv = [*NAMESPACES, "--uid", str(self.uid), "--gid", str(self.gid)]
         argv += ["--hostname", "jail", "--clearenv"]
         env = jail_environment(launch.env)
-        if _user_site() is not None:
+        if user_site() is not None:
             env["PYTHONUSERBASE"] = site.getuserbase()
         for k, v in sorted(env.items()):
             argv += ["--setenv", k, v]
@@ -412,13 +391,14 @@ class Jail:
         for name in PROC_MASKED:
             if Path(name).exists():
                 argv += ["--ro-bind", "/dev/null", name]
-        argv += ["--dev", "/dev", "--size", size, "--tmpfs", "/dev/shm"]
+        argv += ["--dev", "/dev", "--size", size, "--tmpfs", "/dev/shm", "--remount-ro", "/dev"]
         argv += ["--tmpfs", "/tmp"]  # made read-only once the binds below it are in place
         for p in self._binds(launch):
             argv += ["--ro-bind", str(p), str(p)]
+        argv += self._package(launch)
+        argv += self._user(launch)
         argv += ["--size", str(self.scratch_mb << 20), "--tmpfs", scratch, *seeds]
-        argv += ["--chdir", scratch, "--remount-ro", "/tmp", "--remount-ro", "/"]
-        return [*argv, "--", *launch.argv]
+        return [*argv, "--chdir", scratch, "--remount-ro", "/tmp", "--remount-ro", "/"]
 
     # ------------------------------------------------------------------ start and end
     def popen(self, launch: Launch) -> subprocess.Popen[bytes]:
@@ -431,7 +411,9 @@ class Jail:
         if seccomp_fd is not None:
             seed_fds.append(seccomp_fd)  # passed, then closed here, as the seeds are
         try:
-            argv = self.command(launch, info_w, seeds, seccomp_fd)
+            args_fd = _args_fd(self.options(launch, info_w, seeds, seccomp_fd))
+            seed_fds.append(args_fd)
+            argv = [str(self.bwrap.path), "--args", str(args_fd), "--", *launch.argv]
             if group is not None:
                 argv = ["/bin/sh", "-c", JOIN, "sh", *map(str, group.procs), "--", *argv]
             out = subprocess.PIPE if launch.capture else None
@@ -442,7 +424,7 @@ class Jail:
                 stderr=out,
                 pass_fds=(*launch.pass_fds, info_w, *seed_fds),
                 cwd="/",
-                env={"PATH": os.environ.get("PATH", JAIL_PATH)},
+                env={},  # bubblewrap's own environment is its init's: /proc/1/environ
                 start_new_session=True,
             )
         except BaseException:
@@ -534,6 +516,18 @@ class Jail:
     def _note(self, line: str) -> None:
         if line not in self._found:
             self._found.append(line)
+
+
+def _args_fd(options: list[str]) -> int:
+    """A file (in memory) holding bubblewrap's ``options``, NUL-separated, read from its start
+    (``--args``)."""
+    fd = os.memfd_create("bwrap-args", os.MFD_CLOEXEC)
+    data = b"".join(os.fsencode(o) + b"\0" for o in options)
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view) :]
+    os.lseek(fd, 0, os.SEEK_SET)
+    return fd
 
 
 def _filter_fd() -> int | None:

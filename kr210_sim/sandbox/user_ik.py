@@ -89,9 +89,12 @@ class SpecFiles:
     jail) must be told.
 
     Attributes:
-        readable: The user's own files and folders the code is read from: a file SPEC's folder
-            (its other modules may be imported from there), a module SPEC's file or package
-            folder when it lies outside the interpreter's environment (none when installed).
+        readable: The user's own files and folders the code is read from: a file SPEC's file
+            alone (as ``grade`` gives a student handed in as one file: never the folder it lies
+            in, a class folder), a ROS-form script's folder, its package's ``src`` and message
+            definitions, a module SPEC's file or package folder when it lies outside the
+            interpreter's environment (none when installed). A jail shows of them only what
+            :func:`~kr210_sim.sandbox.jail_files.user_files` allows: no link is followed.
         search: Folders that must come first on ``sys.path`` for a module SPEC to import as it
             does here (the folder a module outside the environment was found in).
     """
@@ -143,13 +146,14 @@ def spec_files(spec: str) -> SpecFiles:
     packages beside it (:func:`~kr210_sim.exercise.packages.definition_files`)."""
     where = resolve_spec(spec).rpartition(":")[0]
     if _is_path(where):
-        folder = Path(where).resolve().parent
+        script = Path(where).resolve()
         if not is_ros_form(Path(where)):
-            return SpecFiles((folder,), ())
+            return SpecFiles((script,), ())  # the file alone, as grade gives a one-file student
         from kr210_sim.exercise.packages import definition_files
 
-        src = folder.parent / "src"
-        readable = [folder, *([src.resolve()] if src.is_dir() else [])]
+        folder = script.parent
+        src = folder.parent / "src"  # not resolved: a link (src -> ~instructor) is not shown
+        readable = [folder, *([src] if src.is_dir() else [])]
         readable += [p for p in definition_files(Path(where)) if p not in readable]
         return SpecFiles(tuple(readable), ())
     top = where.split(".")[0]

@@ -122,6 +122,22 @@ def test_a_real_group_bounds_a_fork_loop() -> None:
         assert group.peak() in (None, 8)
 
 
+def test_a_real_group_holds_a_core_at_a_quarter_of_the_graders_weight() -> None:
+    """A noisy student's threads yield to the grading processes (REDTEAM-4 finding 13): its
+    group is held to one core and weighs a quarter of a process outside the jails."""
+    limiter = Limiter(8, 1.0)
+    if not limiter.cpu:
+        pytest.skip("no cpu control group can be made here")
+    with _real_group(limiter) as group:
+        assert group.cpu is not None
+        if (group.cpu / "cpu.weight").exists():  # cgroup v2
+            assert (group.cpu / "cpu.weight").read_text().split() == ["25"]
+            assert (group.cpu / "cpu.max").read_text().split() == ["100000", "100000"]
+        else:
+            assert (group.cpu / "cpu.shares").read_text().split() == ["256"]
+            assert (group.cpu / "cpu.cfs_quota_us").read_text().split() == ["100000"]
+
+
 def test_a_real_group_bounds_the_memory_of_its_processes_in_all() -> None:
     """Three processes of 40 MB each are under any one process's limit, but not under the
     group's 96 MB: the kernel kills one of them (SIGKILL), and the group says so."""

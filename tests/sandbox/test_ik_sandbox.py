@@ -430,7 +430,7 @@ def test_a_module_spec_imports_where_it_does_here(
     assert files.search == (folder.resolve(),)
     assert spec_files("kr210_sim.robot.kinematics:nearest") == SpecFiles((), ())  # ours
     assert spec_files("numpy:zeros").readable == ()  # installed: nothing of the user's
-    assert spec_files(f"{EXAMPLE}:solve").readable == (EXAMPLE.parent,)
+    assert spec_files(f"{EXAMPLE}:solve").readable == (EXAMPLE.resolve(),)  # the file alone
     T = kinematics.forward(Q)
     with IkSandbox("my_ik:solve") as box:
         np.testing.assert_allclose(box(T, Q), Q, atol=1e-9)
@@ -469,7 +469,7 @@ def test_a_confinement_starts_and_ends_the_process(tmp_path: Path) -> None:
     np.testing.assert_array_equal(box(kinematics.forward(Q), Q), Q)
     (launch,) = jail.launches
     pid = box._proc.pid if box._proc else -1
-    assert launch.readable == (tmp_path.resolve(),)
+    assert launch.readable == ((tmp_path / "wrapped.py").resolve(),)  # the file alone
     assert launch.scratch == (tmp_path / "s").resolve()
     assert launch.argv[3] == "kr210_sim.sandbox.ik_child"
     box.close()

@@ -33,13 +33,8 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "ik_dh.py"
 SIBLING_SECRET = "sibling-secret-7f3a"
 KEY_SECRET = "answer-key-91c2"
-#: What every member ends with: our own IK.
-ANSWER = """
-from kr210_sim.robot.kinematics import nearest as _nearest
-
-def solve(T, q):
-    return _nearest(T, q)
-"""
+#: What every member ends with: the worked example's IK (the grader's own is not in the jail).
+ANSWER = "\n" + EXAMPLE.read_text().replace("from __future__ import annotations\n", "")
 
 
 def _members(klass: Path, out: Path, port: int, marker: str) -> dict[str, str]:
@@ -127,6 +122,12 @@ def _members(klass: Path, out: Path, port: int, marker: str) -> dict[str, str]:
                     hashlib.sha256(block).digest()  # the GIL is let go while it hashes
             for _ in range(2 * (os.cpu_count() or 1)):
                 threading.Thread(target=burn, daemon=True).start()
+            """,
+        "sneak": """
+            try:  # the grader's own solver, with a fallback: refused, and named in the verdict
+                from kr210_sim.robot.kinematics import nearest as solve
+            except ImportError:
+                pass
             """,
         "chatty": """
             import sys
@@ -247,6 +248,10 @@ def test_a_hostile_class_is_graded_in_one_call_and_every_attack_is_stopped(
     chatty = by_name["chatty"]["output"]
     assert chatty["bytes"] == 30 * 1024 * 1024 and len(chatty["stdout"]) < 40_000
     assert by_name["pipe"]["detail"].startswith("no answer within 2 s")
+    sneak = by_name["sneak"]
+    assert "imported the grader's own solver (kr210_sim.robot.kinematics)" in sneak["detail"]
+    assert sneak["diagnosis"][0]["code"] == "grader_code"
+    assert all(d["code"] != "grader_code" for d in by_name["bob"]["diagnosis"])
     for name in ("bob", "no_offset", "reader", "writer", "killer", "chatty"):
         assert "the jail stopped" not in by_name[name]["detail"], name
     config = json.loads(report)["config"]

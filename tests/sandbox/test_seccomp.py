@@ -127,7 +127,8 @@ def test_in_the_jail_the_refused_calls_fail_and_python_works(tmp_path: Path, jai
             found["subprocess"] = subprocess.run([sys.executable, "-c", "print(6 * 7)"],
                                                  capture_output=True, text=True).stdout.strip()
             print("FOUND " + json.dumps(found), flush=True)
-            from kr210_sim.robot.kinematics import nearest as solve
+            def solve(T, q_ref):  # the grader's solver is not in the jail: q_ref back
+                return q_ref
             """
         )
     )
