@@ -241,8 +241,11 @@ def view(args: argparse.Namespace) -> int:
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args)
-    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
-    out = sys.stdout
+    # A user's IK: its lines (and the table) may quote what it raised, escaped; no hyperlink.
+    out = cast(TextIO, EscapingStream(sys.stdout)) if ik is not None else sys.stdout
+    result = view_job(
+        config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell, out=out
+    )
     summary = result.report["summary"]
     out.write(summary_table(summary) + "\n")
     out.write(

@@ -70,6 +70,11 @@ class EscapingStream:
     def __getattr__(self, attr: str) -> Any:
         return getattr(self._stream, attr)
 
+    def isatty(self) -> bool:
+        """False: no terminal to draw on (a redraw's ``\\r`` or a hyperlink's OSC 8 would be
+        escaped), so callers write plain lines."""
+        return False
+
     def write(self, text: str) -> int:
         """Write ``text`` escaped (returns the length of ``text``)."""
         self._stream.write(escape(text, lines=True))

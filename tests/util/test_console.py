@@ -13,10 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from chromium import free_port
 
 from kr210_sim.util.console import EscapingStream, escape
 
 ROOT = Path(__file__).resolve().parents[2]
+
 
 #: What a hostile student's exception says: cursor up, erase the line, a carriage return and a
 #: fake ``pass`` row, the window title (OSC 0), the clipboard (OSC 52), a bell, a C1 CSI that
@@ -78,10 +80,11 @@ def _command(args: list[str], cwd: Path) -> subprocess.CompletedProcess[bytes]:
 
 @pytest.mark.slow
 @pytest.mark.usefixtures("jail_ok")
-@pytest.mark.parametrize("command", ["run", "ik-check", "import"])
+@pytest.mark.parametrize("command", ["run", "ik-check", "import", "view"])
 def test_a_hostile_ik_s_text_reaches_no_terminal_raw(tmp_path: Path, command: str) -> None:
-    """``run --ik`` and ``ik-check --ik`` quote what the IK raised; an IK whose import raises
-    is a one-line error. All of them printed the ESC and BEL bytes as they were."""
+    """``run --ik``, ``ik-check --ik`` and ``view --ik`` quote what the IK raised; an IK whose
+    import raises is a one-line error. All of them printed the ESC and BEL bytes as they
+    were."""
     body = f"def solve(T, q):\n    raise ValueError({HOSTILE!r})\n"
     if command == "import":
         body = f"raise ValueError({HOSTILE!r})\n" + body
@@ -90,6 +93,9 @@ def test_a_hostile_ik_s_text_reaches_no_terminal_raw(tmp_path: Path, command: st
     report = ["--report", str(tmp_path / "report.json")]
     if command == "ik-check":
         args = ["ik-check", *ik, "--cases", "2", *report]
+    elif command == "view":
+        web = ["--web", "--port", str(free_port()), "--speed", "50", "--exit-when-done"]
+        args = ["view", *web, *ik, "--cycles", "1", *report]
     else:
         args = ["run", *ik, "--cycles", "1", *report]
     done = _command(args, tmp_path)
