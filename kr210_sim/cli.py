@@ -25,7 +25,7 @@ from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError
 from kr210_sim.util import argtypes
-from kr210_sim.util.console import SafeStream, escape
+from kr210_sim.util.console import EscapingFormatter, SafeStream, escape
 from kr210_sim.util.interrupts import (
     end_start_up,
     exit_code,
@@ -518,10 +518,10 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    log_lines = logging.StreamHandler(sys.stderr)  # a log line may quote a user's IK: escaped
+    log_lines.setFormatter(EscapingFormatter("%(levelname)s %(name)s: %(message)s"))
     logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-        stream=sys.stderr,
+        level=logging.INFO if args.verbose else logging.WARNING, handlers=[log_lines]
     )
     # Every path is resolved now, before any user code runs: an IK that changes the working
     # folder (os.chdir) must not move where the outputs go or which inputs are read.

@@ -11,13 +11,14 @@ silent (what ``head`` expects); any other write error is said once on stderr.
 Text someone else wrote (a student's exception message, its output, a file name) is hostile to
 a terminal: an ESC or BEL byte moves the cursor, erases a line, sets the window title or writes
 the clipboard (OSC 52), and a bidi override reorders what is shown. :func:`escape` is the one
-function that makes such text inert, and :class:`EscapingStream` applies it to every write of
-a command whose lines quote it.
+function that makes such text inert; :class:`EscapingStream` applies it to every write of a
+command whose lines quote it, :class:`EscapingFormatter` to every log line.
 """
 
 from __future__ import annotations
 
 import errno
+import logging
 import os
 import sys
 from typing import Any, TextIO
@@ -160,3 +161,12 @@ class SafeStream:
             return bool(self._stream.isatty())
         except (OSError, ValueError):
             return False
+
+
+class EscapingFormatter(logging.Formatter):
+    """A log formatter whose lines are :func:`escape`'d (their newlines kept: a traceback stays
+    readable): a log line may quote what a user's IK raised."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        """The formatted line, escaped."""
+        return escape(super().format(record), lines=True)

@@ -80,7 +80,7 @@ def _command(args: list[str], cwd: Path) -> subprocess.CompletedProcess[bytes]:
 
 @pytest.mark.slow
 @pytest.mark.usefixtures("jail_ok")
-@pytest.mark.parametrize("command", ["run", "ik-check", "import", "view"])
+@pytest.mark.parametrize("command", ["run", "ik-check", "import", "view", "run -v"])
 def test_a_hostile_ik_s_text_reaches_no_terminal_raw(tmp_path: Path, command: str) -> None:
     """``run --ik``, ``ik-check --ik`` and ``view --ik`` quote what the IK raised; an IK whose
     import raises is a one-line error. All of them printed the ESC and BEL bytes as they
@@ -97,10 +97,13 @@ def test_a_hostile_ik_s_text_reaches_no_terminal_raw(tmp_path: Path, command: st
         web = ["--web", "--port", str(free_port()), "--speed", "50", "--exit-when-done"]
         args = ["view", *web, *ik, "--cycles", "1", *report]
     else:
-        args = ["run", *ik, "--cycles", "1", *report]
+        args = [*command.split()[1:], "run", *ik, "--cycles", "1", *report]
     done = _command(args, tmp_path)
     assert done.returncode in (1, 2), done.stderr
     out = done.stdout + done.stderr
     assert b"Traceback" not in out
     assert raw_controls(out) == []
     assert b"\\x1b]52;c;ZWNobyBvd25lZA==\\x07" in out  # said, as visible escapes
+    if command == "run -v":  # the runner's log line of the failed cycle quotes it too
+        assert b"INFO kr210_sim.sim.runner: cycle 1: " in done.stderr
+        assert b"\\x1b]52;c;ZWNobyBvd25lZA==\\x07" in done.stderr
