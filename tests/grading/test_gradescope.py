@@ -199,8 +199,9 @@ def _autograder(tmp_path: Path, files: dict[str, str]) -> tuple[subprocess.Compl
 def test_run_autograder_grades_a_submission_folder_as_gradescope_lays_it_out(
     tmp_path: Path,
 ) -> None:
-    """An honest ``ik.py`` beside a helper module (one student, not two), and a submission
-    whose IK raises terminal escapes: each gives a results.json Gradescope reads."""
+    """An honest ``ik.py`` beside a helper module (one student, not two), a submission whose
+    IK raises terminal escapes, and an original-form repository (``kuka_arm/scripts/
+    IK_server.py``): each gives a results.json Gradescope reads."""
     src = EXAMPLE.read_text()
     done, path = _autograder(tmp_path / "a", {"ik.py": src, "notes.py": "X = 1\n"})
     assert done.returncode == 0, done.stderr
@@ -219,6 +220,14 @@ def test_run_autograder_grades_a_submission_folder_as_gradescope_lays_it_out(
     assert got["score"] == 0.0 and got["extra_data"]["verdict"] == "fail"
     assert "\\\\x1b]52;c;ZXZpbA==\\\\x07" in raw  # said as visible escapes, in JSON
     assert "\x1b" not in done.stdout + done.stderr
+    from ros_class import numpy_server  # the original exercise's form: a repository
+
+    repo = {"kuka_arm/scripts/IK_server.py": numpy_server(), "README.md": "# pick and place\n"}
+    done, path = _autograder(tmp_path / "c", repo)
+    assert done.returncode == 0, done.stderr
+    got = json.loads(path.read_text())
+    check(got)
+    assert got["extra_data"]["verdict"] == "pass", got["output"]
 
 
 def test_run_autograder_says_why_when_there_is_no_submission(tmp_path: Path) -> None:
