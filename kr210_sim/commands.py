@@ -12,7 +12,6 @@ import argparse
 import os
 import signal
 import sys
-from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from kr210_sim.errors import ConfigError
@@ -388,8 +387,10 @@ def ik_check(args: argparse.Namespace) -> int:
 def grade(args: argparse.Namespace) -> int:
     """``grade``: the leaderboard of a class; 0 when every student passed, 1 otherwise."""
     from kr210_sim.api import GradeReport, RunInterrupted, grade
+    from kr210_sim.grading.course import CourseOutputs
 
-    _course_outputs(args)
+    course = CourseOutputs(args.gradescope, args.csv)  # checked before anyone is graded
+    course.check(args.submissions, {"--report": args.report, "--html": args.html})
     interrupted: RunInterrupted | None = None
     try:
         result = grade(
@@ -415,53 +416,11 @@ def grade(args: argparse.Namespace) -> int:
     out.write(f"  report: {args.report}\n")
     if result.html_path is not None:
         out.write(f"  page: {result.html_path}\n")
-    _write_course_outputs(args, result.data)
+    for line in course.write(result.data):
+        out.write(f"  {line}\n")
     if interrupted is not None:
         return exit_code(interrupted)
     return 0 if result.passed else 1
-
-
-def _course_outputs(args: argparse.Namespace) -> None:
-    """``grade --gradescope`` / ``--csv``, checked before any student is graded: writable,
-    distinct from the other outputs and from every student's file; ``--gradescope`` for one
-    submission only (Gradescope runs the autograder once per submission).
-
-    Raises:
-        ConfigError: Naming the option and what to do.
-    """
-    if args.gradescope is None and args.csv is None:
-        return
-    from kr210_sim.grading.roster import find_students
-    from kr210_sim.sandbox.user_ik import spec_file
-    from kr210_sim.util.outputs import check_distinct, check_writable
-
-    students = find_students(args.submissions)
-    if args.gradescope is not None and len(students) != 1:
-        raise ConfigError(
-            f"--gradescope writes one submission's results.json, and {len(students)} students "
-            "were found: give the one submission's folder or file (see examples/gradescope)"
-        )
-    outputs = {"--report": args.report, "--html": args.html}
-    outputs |= {"--gradescope": args.gradescope, "--csv": args.csv}
-    inputs = {f"student {s.name}": spec_file(s.spec) for s in students if s.spec}
-    check_distinct(outputs, inputs)
-    for path in (args.gradescope, args.csv):
-        if path is not None:
-            check_writable(path)
-
-
-def _write_course_outputs(args: argparse.Namespace, report: Mapping[str, Any]) -> None:
-    """Write ``grade --gradescope`` and ``--csv`` from the grade's report (of the students
-    graded, also when interrupted) and say where."""
-    out = sys.stdout
-    if args.csv is not None:
-        from kr210_sim.grading.gradebook import write_gradebook
-
-        out.write(f"  gradebook: {write_gradebook(args.csv, report)}\n")
-    if args.gradescope is not None and report["students"]:
-        from kr210_sim.grading.gradescope import write_results
-
-        out.write(f"  gradescope: {write_results(args.gradescope, report)}\n")
 
 
 def demos(args: argparse.Namespace) -> int:

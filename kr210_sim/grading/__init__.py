@@ -13,7 +13,8 @@ instructor can take to a course.
   :mod:`~kr210_sim.grading.leaderboard` ranks a class;
 * :mod:`~kr210_sim.grading.gradebook` scores each verdict and writes the CSV an LMS gradebook
   imports (``grade --csv``), :mod:`~kr210_sim.grading.gradescope` one submission's Gradescope
-  ``results.json`` (``grade --gradescope``).
+  ``results.json`` (``grade --gradescope``); :mod:`~kr210_sim.grading.course` checks both
+  before the grading and writes them after.
 
 May import everything below it in the flow (errors, util, robot, exercise, sandbox, cell, plan,
 score, sim); nothing imports it but the jobs, the API and the commands. Until 0.2.0 these

@@ -244,26 +244,3 @@ def test_run_autograder_says_why_when_there_is_no_submission(tmp_path: Path) -> 
     )
     assert done.returncode == 2
     assert done.stderr == f"run_autograder: no submission folder {home}/submission\n"
-
-
-def test_grade_s_course_outputs_are_checked_before_anyone_is_graded(
-    tmp_path: Path, capsys: pytest.CaptureFixture
-) -> None:
-    """--gradescope is one submission's; no output may replace another or a student's file."""
-    from kr210_sim.cli import main
-
-    folder = tmp_path / "class"
-    folder.mkdir()
-    for name in ("amy", "bea"):
-        (folder / f"{name}.py").write_text(EXAMPLE.read_text())
-    report = tmp_path / "grade.json"
-    for argv, message in (
-        ([str(folder), "--gradescope", str(tmp_path / "r.json")], "2 students were found"),
-        ([str(folder / "amy.py"), "--csv", str(report), "--report", str(report)], "--csv"),
-        ([str(folder), "--csv", str(folder / "bea.py")], "student bea"),
-        ([str(folder), "--csv", str(tmp_path)], "is a folder"),
-    ):
-        assert main(["grade", *argv, "--cases", "0", "--cycles", "1"]) == 2
-        err = capsys.readouterr().err
-        assert message in err and len(err.strip().splitlines()) == 1, err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["class"]  # nothing graded, written
