@@ -25,7 +25,7 @@ from kr210_sim import __version__, commands
 from kr210_sim.commands import DEFAULT_RECORD_RATE
 from kr210_sim.errors import Kr210SimError
 from kr210_sim.util import argtypes
-from kr210_sim.util.console import SafeStream
+from kr210_sim.util.console import EscapingFormatter, SafeStream, escape
 from kr210_sim.util.interrupts import (
     end_start_up,
     exit_code,
@@ -393,6 +393,16 @@ def _add_grade(sub: _Commands) -> None:
     _add_min_success_option(cmd, 0.8, "the run's pass bar (0.8: 8 of 10)")
     _add_report_option(cmd, DEFAULT_GRADE_REPORT, "JSON report")
     cmd.add_argument("--html", type=Path, default=None, help="write the leaderboard page here")
+    cmd.add_argument(
+        "--gradescope",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="write Gradescope's results.json here (one submission)",
+    )
+    cmd.add_argument(
+        "--csv", type=Path, default=None, metavar="FILE", help="write a gradebook CSV here"
+    )
     _add_no_jail_option(cmd, "run the students' code unjailed (says what is then unprotected)")
     cmd.set_defaults(func=commands.grade)
 
@@ -508,10 +518,10 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    log_lines = logging.StreamHandler(sys.stderr)  # a log line may quote a user's IK: escaped
+    log_lines.setFormatter(EscapingFormatter("%(levelname)s %(name)s: %(message)s"))
     logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-        stream=sys.stderr,
+        level=logging.INFO if args.verbose else logging.WARNING, handlers=[log_lines]
     )
     # Every path is resolved now, before any user code runs: an IK that changes the working
     # folder (os.chdir) must not move where the outputs go or which inputs are read.
@@ -538,8 +548,8 @@ def _main(argv: list[str] | None) -> int:
             return 2
         table = getattr(exc, "table", None)
         if table:
-            sys.stderr.write(table + "\n")
-        sys.stderr.write(f"kr210_sim: error: {exc}\n")
+            sys.stderr.write(escape(table, lines=True) + "\n")
+        sys.stderr.write(f"kr210_sim: error: {escape(str(exc))}\n")  # may quote a user's IK
         return 2
     except KeyboardInterrupt as exc:
         sys.stderr.write(f"kr210_sim: interrupted ({signal_name(exc)})\n")

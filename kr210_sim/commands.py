@@ -12,9 +12,10 @@ import argparse
 import os
 import signal
 import sys
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from kr210_sim.errors import ConfigError
+from kr210_sim.util.console import EscapingStream
 from kr210_sim.util.interrupts import end_start_up, exit_code, signal_name
 from kr210_sim.util.progress import ProgressLine
 
@@ -123,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
             scene=args.scene,
             cell=args.cell,
             report=args.report,
-            out=sys.stdout,
+            out=cast(TextIO, EscapingStream(sys.stdout)),  # its lines quote the user's IK
             record=args.record,
             record_rate=args.record_rate or DEFAULT_RECORD_RATE,
             render_workers=args.render_workers,
@@ -152,10 +153,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_run(result: RunReport, video: VideoSettings | None) -> None:
-    """The summary table and the outputs of ``run`` on stdout."""
+    """The summary table and the outputs of ``run`` on stdout (escaped: the table quotes the
+    user's IK)."""
     from kr210_sim.score.report import summary_table
 
-    out = sys.stdout
+    out = EscapingStream(sys.stdout)
     summary = dict(result.summary)
     out.write(summary_table(summary) + "\n")
     if "ik" in summary:
@@ -238,8 +240,11 @@ def view(args: argparse.Namespace) -> int:
     config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot, randomize=args.randomize)
     live = LiveSettings(speed=args.speed, exit_when_done=args.exit_when_done)
     ik = _load_ik(args)
-    result = view_job(config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell)
-    out = sys.stdout
+    # A user's IK: its lines (and the table) may quote what it raised, escaped; no hyperlink.
+    out = cast(TextIO, EscapingStream(sys.stdout)) if ik is not None else sys.stdout
+    result = view_job(
+        config, args.report, settings, live, scene=args.scene, ik=ik, cell=args.cell, out=out
+    )
     summary = result.report["summary"]
     out.write(summary_table(summary) + "\n")
     out.write(
@@ -369,7 +374,7 @@ def ik_check(args: argparse.Namespace) -> int:
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]
     assert isinstance(result, IkCheckReport)
-    out = sys.stdout
+    out = EscapingStream(sys.stdout)  # the text quotes what the user's IK raised
     out.write(result.text + "\n")
     out.write(f"  report: {args.report}\n")
     if result.plot_paths:
@@ -382,7 +387,10 @@ def ik_check(args: argparse.Namespace) -> int:
 def grade(args: argparse.Namespace) -> int:
     """``grade``: the leaderboard of a class; 0 when every student passed, 1 otherwise."""
     from kr210_sim.api import GradeReport, RunInterrupted, grade
+    from kr210_sim.grading.course import CourseOutputs
 
+    course = CourseOutputs(args.gradescope, args.csv)  # checked before anyone is graded
+    course.check(args.submissions, {"--report": args.report, "--html": args.html})
     interrupted: RunInterrupted | None = None
     try:
         result = grade(
@@ -408,6 +416,8 @@ def grade(args: argparse.Namespace) -> int:
     out.write(f"  report: {args.report}\n")
     if result.html_path is not None:
         out.write(f"  page: {result.html_path}\n")
+    for line in course.write(result.data):
+        out.write(f"  {line}\n")
     if interrupted is not None:
         return exit_code(interrupted)
     return 0 if result.passed else 1

@@ -10,7 +10,11 @@ instructor can take to a course.
   exercise's own ``IK_debug.py`` cases;
 * :mod:`~kr210_sim.grading.diagnose` and :mod:`~kr210_sim.grading.finding` explain a failure in
   the student's terms; :mod:`~kr210_sim.grading.budget` sets the time allowed;
-  :mod:`~kr210_sim.grading.leaderboard` ranks a class.
+  :mod:`~kr210_sim.grading.leaderboard` ranks a class;
+* :mod:`~kr210_sim.grading.gradebook` scores each verdict and writes the CSV an LMS gradebook
+  imports (``grade --csv``), :mod:`~kr210_sim.grading.gradescope` one submission's Gradescope
+  ``results.json`` (``grade --gradescope``); :mod:`~kr210_sim.grading.course` checks both
+  before the grading and writes them after.
 
 May import everything below it in the flow (errors, util, robot, exercise, sandbox, cell, plan,
 score, sim); nothing imports it but the jobs, the API and the commands. Until 0.2.0 these

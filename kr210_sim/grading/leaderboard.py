@@ -5,6 +5,10 @@ crashed, error), then by cycles that succeeded, ik-check cases passed, the worst
 and the name. The page (``--html``) needs no network: its style is inline and its plots are PNG
 data URIs; it has no script, and every text on it is escaped. The records given here are
 checked ones (:func:`kr210_sim.grading.record.record_problem`).
+
+Every string of a record came from, or quotes, a student. On the terminal each one passes
+:func:`~kr210_sim.util.console.escape` (one line: no ESC, BEL or carriage return reaches the
+instructor's screen); on the page each one passes :func:`_text` (the same escape, then HTML's).
 """
 
 from __future__ import annotations
@@ -15,11 +19,14 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim.grading.record import VERDICTS, printable
+from kr210_sim.util.console import escape
 
 #: Captured output shown per student on the page [characters].
 PAGE_OUTPUT = 4000
 #: Longest name the terminal's table shows whole [characters].
 TABLE_NAME = 40
+#: Longest diagnosis the page's top table shows whole [characters] (its section has it all).
+CELL_TEXT = 160
 _COLOURS = {
     "pass": "#1a7f37",
     "fail": "#b35900",
@@ -98,21 +105,28 @@ def _figures(r: dict[str, Any]) -> tuple[str, str, str, str]:
 
 
 def _short_name(name: str) -> str:
+    name = escape(name)
     return name if len(name) <= TABLE_NAME else name[: TABLE_NAME - 3] + "..."
 
 
+def findings(r: dict[str, Any]) -> list[str]:
+    """What the diagnosis of record ``r`` names, one text per finding (as in the record)."""
+    return [f["text"] for f in r.get("diagnosis") or []]
+
+
 def student_line(r: dict[str, Any]) -> str:
-    """One line per finished student (printed as each one ends)."""
+    """One line per finished student (printed as each one ends), every text escaped."""
     cases, _, _, cycles = _figures(r)
     return (
-        f"{_short_name(r['name']):<20} {r['verdict']:<8} ik-check {cases:<10} cycles {cycles:<6} "
-        f"{r['wall_time_s']['total']:6.1f} s  {r['detail']}"
+        f"{_short_name(r['name']):<20} {escape(r['verdict']):<8} ik-check {cases:<10} "
+        f"cycles {cycles:<6} {r['wall_time_s']['total']:6.1f} s  {escape(r['detail'])}"
     )
 
 
 def table(report: dict[str, Any]) -> str:
-    """The leaderboard: a line per student (and for a student who did not pass, what the
-    diagnosis names), the count per verdict and the overall result."""
+    """The leaderboard: a line per student (and for a student who did not pass, every finding
+    of its diagnosis, or its detail when there is none), the count per verdict and the overall
+    result; every text escaped (:func:`~kr210_sim.util.console.escape`)."""
     rows = [
         f"  {'#':>3}  {'student':<20} {'verdict':<8} {'ik-check':>10} {'worst mm':>9} "
         f"{'worst mrad':>11} {'cycles':>7} {'time s':>7}"
@@ -121,12 +135,11 @@ def table(report: dict[str, Any]) -> str:
         cases, pos, ori, cycles = _figures(r)
         name = _short_name(r["name"])
         rows.append(
-            f"  {i:>3}  {name:<20} {r['verdict']:<8} {cases:>10} {pos:>9} {ori:>11} "
+            f"  {i:>3}  {name:<20} {escape(r['verdict']):<8} {cases:>10} {pos:>9} {ori:>11} "
             f"{cycles:>7} {r['wall_time_s']['total']:>7.1f}"
         )
         if r["verdict"] != "pass":
-            found = r.get("diagnosis") or []
-            rows.append(f"        {found[0]['text'] if found else r['detail']}")
+            rows.extend(f"        {escape(text)}" for text in findings(r) or [r["detail"]])
     s = report["summary"]
     counts = ", ".join(f"{n} {v}" for v, n in s["verdicts"].items() if n)
     rows.append(f"  {s['students']} students: {counts or 'none graded'}")
@@ -145,16 +158,38 @@ table{border-collapse:collapse}td,th{padding:.25em .7em;border-bottom:1px solid 
 text-align:right}td.l,th.l{text-align:left}.v{color:#fff;border-radius:.3em;padding:.1em .5em}
 pre{background:#f6f8fa;padding:.6em;overflow-x:auto;max-height:20em}img{max-width:100%}
 section{border-top:2px solid #d0d7de;margin-top:2em}code{background:#f6f8fa}
+td.d{font-size:.85em;max-width:30em}
 """
+
+
+def _text(text: str, lines: bool = False) -> str:
+    """``text`` for the page: :func:`~kr210_sim.util.console.escape` (no control character;
+    ``lines`` keeps newlines and tabs, for a ``<pre>``), then HTML-escaped, quotes included."""
+    return html.escape(escape(text, lines=lines), quote=True)
 
 
 def _badge(verdict: str) -> str:
     colour = _COLOURS.get(verdict, "#57606a")
-    return f'<span class="v" style="background:{colour}">{html.escape(verdict)}</span>'
+    return f'<span class="v" style="background:{colour}">{_text(verdict)}</span>'
+
+
+def answered(r: dict[str, Any]) -> bool:
+    """Whether the student of record ``r`` answered any ik-check case with joint angles whose
+    error could be measured (the error plots then have something to show)."""
+    ik = r.get("ik_check") or {}
+    return ik.get("max_position_error_m") is not None
+
+
+def _diagnosis_cell(r: dict[str, Any]) -> str:
+    """The top table's diagnosis: each finding on its line, cut to :data:`CELL_TEXT`
+    characters (the detail for a student who did not pass and has none)."""
+    texts = findings(r) or ([] if r["verdict"] == "pass" else [r["detail"]])
+    cut = [t if len(t) <= CELL_TEXT else t[: CELL_TEXT - 3] + "..." for t in texts]
+    return "<br>".join(_text(t) for t in cut)
 
 
 def _section(i: int, r: dict[str, Any], plots: dict[str, str]) -> str:
-    e = html.escape
+    e = _text
     parts = [
         f'<section id="student-{i}"><h2>{e(r["name"])} {_badge(r["verdict"])}</h2>',
         f"<p>{e(r['detail'])}</p>",
@@ -173,8 +208,11 @@ def _section(i: int, r: dict[str, Any], plots: dict[str, str]) -> str:
             f"limits, {ik['raised']} raised, {ik['returned_none']} None; "
             f"{1e6 * ik['wall_time_per_call_s']:.0f} &micro;s per call</p>"
         )
-    for name, data in sorted(plots.items()):
-        parts.append(f'<img alt="{e(name)}" src="data:image/png;base64,{data}">')
+    if answered(r):
+        for name, data in sorted(plots.items()):
+            parts.append(f'<img alt="{e(name)}" src="data:image/png;base64,{data}">')
+    elif ik:
+        parts.append("<p>No error plots: it answered none of the cases.</p>")
     run = r.get("run")
     if run:
         ran = run.get("cycles_run", run["cycles"])
@@ -195,14 +233,17 @@ def _section(i: int, r: dict[str, Any], plots: dict[str, str]) -> str:
     out = r.get("output") or {}
     if out.get("bytes"):
         text = (out.get("stdout", "") + out.get("stderr", ""))[:PAGE_OUTPUT]
-        parts.append(f"<h3>Output ({out['bytes']} bytes; excerpt)</h3><pre>{e(text)}</pre>")
+        parts.append(
+            f"<h3>Output ({out['bytes']} bytes; excerpt)</h3><pre>{e(text, lines=True)}</pre>"
+        )
     parts.append("</section>")
     return "\n".join(parts)
 
 
 def page(report: dict[str, Any], records: list[dict[str, Any]]) -> str:
-    """The self-contained HTML page: the leaderboard and a section per student."""
-    e = html.escape
+    """The self-contained HTML page: the leaderboard (with each student's diagnosis) and a
+    section per student."""
+    e = _text
     plots = {r["name"]: r.get("plots") or {} for r in records}
     rows = []
     for i, r in enumerate(report["students"], start=1):
@@ -210,12 +251,14 @@ def page(report: dict[str, Any], records: list[dict[str, Any]]) -> str:
         rows.append(
             f'<tr><td>{i}</td><td class="l"><a href="#student-{i}">{e(r["name"])}</a></td>'
             f'<td class="l">{_badge(r["verdict"])}</td><td>{cases}</td><td>{pos}</td>'
-            f"<td>{ori}</td><td>{cycles}</td><td>{r['wall_time_s']['total']:.1f}</td></tr>"
+            f"<td>{ori}</td><td>{cycles}</td><td>{r['wall_time_s']['total']:.1f}</td>"
+            f'<td class="l d">{_diagnosis_cell(r)}</td></tr>'
         )
     c = report["config"]
     head = (
         '<tr><th>#</th><th class="l">student</th><th class="l">verdict</th><th>ik-check</th>'
-        "<th>worst mm</th><th>worst mrad</th><th>cycles</th><th>time s</th></tr>"
+        "<th>worst mm</th><th>worst mrad</th><th>cycles</th><th>time s</th>"
+        '<th class="l">diagnosis</th></tr>'
     )
     sections = "\n".join(
         _section(i, r, plots.get(r["name"], {})) for i, r in enumerate(report["students"], start=1)

@@ -9,10 +9,13 @@ leaderboard reads, of the right type (:func:`record_problem`); anything else mak
 ``crashed``, with a detail that says which of these failed. Nothing the student's code can write
 (a file, the grading process's output) is read for a verdict.
 
-Names and texts are shown and written as text any terminal, JSON reader and browser takes:
-:func:`printable` turns the surrogate escapes Python gives undecodable bytes of a file name
-into ``\\xNN`` (and, for names, control characters into escapes), :func:`clean` does it for
-every string of a record.
+Names and texts are shown and written as text any terminal, JSON reader and browser takes, and
+that none acts on: :func:`printable` turns the surrogate escapes Python gives undecodable bytes
+of a file name into ``\\xNN`` and control characters (ESC, BEL, a bidi override; for names,
+newlines and tabs too) into escapes; :func:`clean` does it for every string of a record as the
+grader takes it in, so a student's exception text or output reaches no terminal, page, CSV or
+``results.json`` raw. Whatever prints a record's strings to a terminal passes them through
+:func:`~kr210_sim.util.console.escape` once more, one line each.
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ import math
 import struct
 from collections.abc import Callable, Mapping
 from typing import Any
+
+from kr210_sim.util.console import escape
 
 #: The verdicts, best first (the leaderboard's order).
 VERDICTS = ("pass", "fail", "timeout", "crashed", "error")
@@ -212,16 +217,11 @@ def record_problem(record: Mapping[str, Any]) -> str:
 
 # -- text for terminals, JSON and pages ------------------------------------------------------
 def printable(text: str, name: bool = False) -> str:
-    """``text`` with every undecodable byte of a file name (a surrogate escape) as ``\\xNN``;
-    with ``name``, also control characters (a newline, a tab) as escapes, so a name stays on
-    its line."""
-    try:
-        out = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
-    except UnicodeEncodeError:  # a lone surrogate that no byte of a file name gives
-        out = text.encode("utf-8", "backslashreplace").decode("utf-8")
-    if name:
-        out = "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in out)
-    return out
+    """``text`` as inert text (:func:`kr210_sim.util.console.escape`): every undecodable byte of
+    a file name (a surrogate escape) as ``\\xNN`` and every control character (ESC, BEL, a
+    carriage return, a bidi override) as its escape, so no terminal acts on it; a text keeps
+    its newlines and tabs, a ``name`` does not (it stays on its line)."""
+    return escape(text, lines=not name)
 
 
 def clean(value: Any) -> Any:

@@ -7,14 +7,79 @@ the first failed write points the file descriptor at ``/dev/null`` (so the inter
 flush at exit is quiet too), later writes are dropped, and the run goes on; so are writes after
 a user's code closed the stream (``sys.stdout.close()``). A broken pipe is
 silent (what ``head`` expects); any other write error is said once on stderr.
+
+Text someone else wrote (a student's exception message, its output, a file name) is hostile to
+a terminal: an ESC or BEL byte moves the cursor, erases a line, sets the window title or writes
+the clipboard (OSC 52), and a bidi override reorders what is shown. :func:`escape` is the one
+function that makes such text inert; :class:`EscapingStream` applies it to every write of a
+command whose lines quote it, :class:`EscapingFormatter` to every log line.
 """
 
 from __future__ import annotations
 
 import errno
+import logging
 import os
 import sys
 from typing import Any, TextIO
+
+#: The line breaks :func:`escape` keeps with ``lines`` (a text's own lines and tabs).
+_KEPT_IN_LINES = frozenset("\n\t")
+
+
+def escape(text: str, lines: bool = False) -> str:
+    """``text`` as inert text for a terminal, a log, a JSON reader and a page.
+
+    A file name's undecodable bytes (Python's surrogate escapes) become ``\\xNN``, and every
+    character a terminal or a text renderer acts on becomes its Python escape (``\\x1b``,
+    ``\\x07``, ``\\x9b``, ``\\r``, ``\\u202e``): C0 and C1 controls, DEL, format
+    characters (bidi overrides, zero-width joiners), line and paragraph separators, and every
+    other character :meth:`str.isprintable` refuses. What is left is printable; a backslash
+    stays as it is (an escape shown is told from a real one by the text around it, never by a
+    terminal).
+
+    Args:
+        text: Any text, of any origin.
+        lines: Keep newlines and tabs (a multi-line text such as captured output); else the
+            result is one line.
+    """
+    try:
+        out = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a lone surrogate that no byte of a file name gives
+        out = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    if out.isprintable():
+        return out
+    return "".join(
+        c
+        if c.isprintable() or (lines and c in _KEPT_IN_LINES)
+        else c.encode("unicode_escape").decode("ascii")
+        for c in out
+    )
+
+
+class EscapingStream:
+    """A text stream that writes every text :func:`escape`'d, its lines kept: for a command
+    whose lines quote what a student or a user's IK wrote (``run --ik``, ``ik-check``).
+
+    Args:
+        stream: The stream to wrap.
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+
+    def __getattr__(self, attr: str) -> Any:
+        return getattr(self._stream, attr)
+
+    def isatty(self) -> bool:
+        """False: no terminal to draw on (a redraw's ``\\r`` or a hyperlink's OSC 8 would be
+        escaped), so callers write plain lines."""
+        return False
+
+    def write(self, text: str) -> int:
+        """Write ``text`` escaped (returns the length of ``text``)."""
+        self._stream.write(escape(text, lines=True))
+        return len(text)
 
 
 class SafeStream:
@@ -96,3 +161,12 @@ class SafeStream:
             return bool(self._stream.isatty())
         except (OSError, ValueError):
             return False
+
+
+class EscapingFormatter(logging.Formatter):
+    """A log formatter whose lines are :func:`escape`'d (their newlines kept: a traceback stays
+    readable): a log line may quote what a user's IK raised."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        """The formatted line, escaped."""
+        return escape(super().format(record), lines=True)

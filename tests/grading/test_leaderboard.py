@@ -110,13 +110,53 @@ def test_page_is_self_contained_and_escaped(tmp_path: Path) -> None:
     with_plots = [dict(r, plots={"ik_error_histograms.png": PNG}) for r in RECORDS]
     report = build_report(with_plots, CONFIG, 1, 1.0, None)
     html = page(report, with_plots)
-    assert html.count(f"data:image/png;base64,{PNG}") == 7
+    assert html.count(f"data:image/png;base64,{PNG}") == 4  # those who answered
     assert "a &lt;b&gt; &amp; c" in html and "&lt;hi&gt;" in html
     assert "http" not in html and "<script" not in html and "<link" not in html
     assert html.index("<h2>cid ") < html.index("<h2>zed ")
     assert html.index('href="#student-1">cid<') < html.index('id="student-1"')
     path = write_html(tmp_path / "board.html", report, with_plots)
     assert path.read_text() == html
+
+
+def test_the_terminal_names_every_finding_of_a_student_who_did_not_pass() -> None:
+    """Only the first finding was shown."""
+    r = _record("gus", "fail", 1, 80, 0.054)
+    r["diagnosis"].append({"code": "wrist_flip", "text": "gus flips its wrist"})
+    lines = table(build_report([r], CONFIG, 1, 1.0, None)).splitlines()
+    assert [ln.strip() for ln in lines[2:4]] == ["gus is 54 mm off", "gus flips its wrist"]
+    crashed = dict(_record("hal", "crashed", None, None), diagnosis=[])
+    assert table(build_report([crashed], CONFIG, 1, 1.0, None)).splitlines()[2].strip() == (
+        "hal detail"
+    )
+
+
+def test_the_page_s_top_table_has_each_student_s_diagnosis() -> None:
+    r = _record("gus", "fail", 1, 80, 0.054)
+    r["diagnosis"].append({"code": "long", "text": "<b>" + "x" * 300})
+    ok = dict(_record("ida", "pass", 2, 85), diagnosis=[])
+    crashed = dict(_record("hal", "crashed", None, None), diagnosis=[])
+    html = page(build_report([r, ok, crashed], CONFIG, 1, 1.0, None), [r, ok, crashed])
+    head, rows = html.split("</tr>", 1)[0], html.split("</table>")[0].split("</tr>")[1:-1]
+    assert head.endswith('<th class="l">diagnosis</th>')
+    cells = [row.rsplit('<td class="l d">', 1)[1].removesuffix("</td>") for row in rows]
+    assert cells[0] == ""  # ida passed, nothing to say
+    assert cells[1].startswith("gus is 54 mm off<br>&lt;b&gt;xxx") and cells[1].endswith("x...")
+    assert cells[2] == "hal detail"  # no diagnosis: the detail says why
+
+
+def test_no_plots_for_a_student_who_never_answered() -> None:
+    """A student whose every call raised or returned None had two empty plots on the page."""
+    silent = _record("gus", "fail", 0, 0)
+    silent["ik_check"] |= {"raised": 85, "max_position_error_m": None}
+    silent["ik_check"]["max_orientation_error_rad"] = None
+    silent["plots"] = {"ik_error_histograms.png": PNG, "ik_error_workspace.png": PNG}
+    answered = dict(_record("amy", "fail", 1, 80, 0.01), plots=dict(silent["plots"]))
+    html = page(build_report([silent, answered], CONFIG, 1, 1.0, None), [silent, answered])
+    gus = html[html.index("<h2>gus ") :]
+    amy = html[html.index("<h2>amy ") : html.index("<h2>gus ")]
+    assert "<img" not in gus and "No error plots: it answered none of the cases." in gus
+    assert amy.count("<img") == 2
 
 
 def test_the_cycles_column_reads_successes_of_the_cycles_asked_for() -> None:
@@ -217,3 +257,50 @@ def test_the_page_shows_hostile_names_and_texts_as_text(browser: Any, tmp_path: 
     for text in names[:5]:  # every hostile text is on the page as text, where it was put
         assert shown["text"].count(text) >= 6, text
     assert not (tmp_path / "pwned").exists()
+
+
+# -- a hostile student, graded for real in the jail --------------------------------------------
+@pytest.mark.slow
+@pytest.mark.usefixtures("jail_ok")
+def test_a_hostile_student_s_escapes_reach_no_terminal_page_or_gradebook(tmp_path: Path) -> None:
+    """An IK that prints and raises terminal escapes (cursor up, erase line and a fake
+    ``pass`` row, the window title, an OSC 52 clipboard write, a C1 CSI, a bidi override): its
+    text reached the instructor's terminal raw, in the line printed as it ended and in the
+    table (REDTEAM-4 finding 6)."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    evil = "\x1b[1A\x1b[2K\r  1  honest  pass\x1b]0;owned\x07\x1b]52;c;ZXZpbA==\x07\x9b2J\u202e"
+    folder = tmp_path / "class"
+    folder.mkdir()
+    (folder / "honest.py").write_text((root / "examples" / "ik_dh.py").read_text())
+    body = f"def solve(T, q):\n    print({evil!r})\n    raise ValueError({evil!r})\n"
+    (folder / "evil.py").write_text(f"print({evil!r})\n\n{body}")
+    out = tmp_path / "out"
+    args = ["class", "--cases", "0", "--cycles", "1", "--workers", "2"]
+    args += ["--report", str(out / "grade.json"), "--html", str(out / "grade.html")]
+    args += ["--csv", str(out / "grades.csv")]
+    done = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", "grade", *args],
+        cwd=tmp_path,
+        env=dict(os.environ, PYTHONPATH=str(root), TMPDIR=str(tmp_path)),
+        capture_output=True,
+        timeout=900,
+    )
+    assert done.returncode == 1, done.stderr
+    report = json.loads((out / "grade.json").read_text())
+    assert {s["name"]: s["verdict"] for s in report["students"]} == {
+        "honest": "pass",
+        "evil": "fail",
+    }
+    seen = rb"\x1b]52;c;ZXZpbA==\x07"
+    raw = (b"\x1b", b"\x07", b"\r", "\x9b".encode(), "\u202e".encode())
+    for name, data in [
+        ("console", done.stdout + done.stderr),
+        ("page", (out / "grade.html").read_bytes()),
+        ("gradebook", (out / "grades.csv").read_bytes().replace(b"\r\n", b"\n")),
+    ]:
+        assert [b for b in raw if b in data] == [], name
+        assert seen in data, name  # said, as visible escapes
+    assert rb"raised on 68 poses (e.g. IK_debug case 1: ValueError: \x1b[1A\x1b[2K" in done.stdout

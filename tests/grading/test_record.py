@@ -152,3 +152,29 @@ def test_names_and_texts_become_printable_text() -> None:
         shown = printable(name, name=True)
         shown.encode("utf-8")
         assert shown.isprintable() and len(shown.splitlines()) == 1
+
+
+def test_a_record_s_texts_reach_no_terminal_raw() -> None:
+    """An exception text with terminal escapes (cursor up, erase line, OSC title, OSC 52
+    clipboard) went into the record, the line printed as a student ends and the table as it
+    came (REDTEAM-4 finding 6)."""
+    evil = "\x1b[1A\x1b[2K\rcid pass\x1b]0;owned\x07\x1b]52;c;ZXZpbA==\x07\x9b2J\u202e"
+    r = _good()
+    r["detail"] = f"raised ValueError: {evil}"
+    r["diagnosis"] = [{"code": "raised", "text": f"first {evil}"}, {"code": "x", "text": evil}]
+    r["output"] = {"bytes": 9, "stdout": f"line 1\n{evil}\tend\n", "stderr": ""}
+    kept = clean(r)
+    assert kept["detail"] == (
+        "raised ValueError: \\x1b[1A\\x1b[2K\\rcid pass\\x1b]0;owned\\x07"
+        "\\x1b]52;c;ZXZpbA==\\x07\\x9b2J\\u202e"
+    )
+    assert (
+        kept["output"]["stdout"].startswith("line 1\n\\x1b[1A")
+        and "\tend\n" in r["output"]["stdout"]
+    )
+    report = build_report([dict(r, name=f"eve{evil}")], {}, 1, 1.0, None)  # even uncleaned
+    for shown in (student_line(r), table(report), student_line(kept)):
+        assert all(c.isprintable() or c == "\n" for c in shown), repr(shown)
+        assert "\\x1b]52;c;ZXZpbA==\\x07" in shown
+    assert table(report).count("\\x1b]52") == 2  # both findings (and the name, cut short)
+    assert "  eve\\x1b[1A\\x1b[2K\\rcid pass\\x1b]0;own... fail " in table(report)
