@@ -1,5 +1,6 @@
 """The README is one page that points into the site: its relative links and pictures exist, it
-starts with the two commands, and it stays short."""
+starts with the two commands, and it stays short. (That no page points outside the repository
+is tests/test_package_layout.py's.)"""
 
 from __future__ import annotations
 
@@ -30,9 +31,3 @@ def test_the_readme_opens_with_the_two_commands_and_fits_on_a_page() -> None:
     first = "\n".join(lines[:6])
     assert "make run" in first and "make test" in first
     assert len(lines) <= 120
-
-
-def test_no_page_points_outside_the_repository() -> None:
-    for page in [README, *(ROOT / "docs").rglob("*.md")]:
-        text = page.read_text(encoding="utf-8")
-        assert "../shared" not in text and "/work/" not in text, page

@@ -6,8 +6,8 @@ A block runs as one ``bash -e`` script. It must exit with 0, unless an HTML comm
 ``<!-- exits: N -->`` stands on the line before its fence (invisible on the page), as for a
 command the tutorial shows failing on purpose. The blocks of one tutorial share the folder,
 so a later block sees the files an earlier one wrote. A ``text`` block after a ``bash`` block
-shows its output: its verdict lines (``PASS:``, ``FAIL:``, ``cell ...:``), which hold no
-timings, must be printed by it word for word.
+shows its output: its lines that hold no timings (the verdicts ``PASS:``, ``FAIL:``,
+``cell ...:`` and the instructor's gradebook rows) must be printed by it word for word.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TUTORIALS = sorted((ROOT / "docs" / "tutorials").glob("*.md"))
 
 _FENCE = re.compile(r"^```(\S*)\s*$")
-_VERDICTS = ("PASS:", "FAIL:", "cell ")
+_VERDICTS = ("PASS:", "FAIL:", "cell ", "student,", "alice,", "bob,")
 _EXITS = re.compile(r"^<!--\s*exits:\s*(\d+)\s*-->\s*$")
 
 
