@@ -43,8 +43,9 @@ The mistakes of the original exercise's servers (:mod:`kr210_sim.exercise`):
 * ``compat``: what the course's libraries did and today's do not, which the server needed and
   was given (:mod:`kr210_sim.exercise.legacy`: a ragged array, ``numpy.float``): our
   environment, not the student's mistake.
-* ``same_offset`` and ``failed_cases`` (:mod:`kr210_sim.grading.misses`): every answer off by one
-  vector; and, last, the failed cases nothing above explains, each named with what it missed.
+* ``same_offset``, ``failed_cases`` and ``failed_cycles`` (:mod:`kr210_sim.grading.misses`):
+  every answer off by one vector; and, last, the failed cases and cycles nothing above explains,
+  each named with what it missed.
 
 The figures come from :mod:`kr210_sim.grading.ikcheck` records (and, for ``gripper_frame``, the
 cases' poses, whose rotations the records do not keep).
@@ -64,6 +65,7 @@ from kr210_sim.grading.finding import answered as _answered
 from kr210_sim.grading.finding import exact_position as _exact_position
 from kr210_sim.grading.finding import wrong_rotation as _wrong_rotation
 from kr210_sim.grading.misses import failed_cases, same_offset
+from kr210_sim.grading.misses import failed_cycles as _unnamed_cycles
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.ik_guard import ORIENTATION_TOL, POSITION_TOL
 
@@ -521,5 +523,5 @@ def diagnose(
                 f"{nones[0]['name']})",
             )
         )
-    f = failed_cases(records, found, ros=no_q_ref)  # every failed case named, in the end
-    return found + ([f] if f is not None else [])
+    last = (failed_cases(records, found, ros=no_q_ref), _unnamed_cycles(failed_cycles))
+    return found + [f for f in last if f is not None]  # every failed case and cycle named

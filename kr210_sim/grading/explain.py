@@ -97,7 +97,11 @@ def run_findings(kin: Kinematics, watched: Watched, cycles: Sequence[Any]) -> li
     """The diagnosis of a run with a user's IK: its answers (:meth:`Watched.records`), its
     failed cycles (``cycles``: :class:`~kr210_sim.score.result.CycleResult`) and its notes."""
     records, poses = watched.records(kin)
-    failed = [{"cycle": c.index, "detail": c.detail} for c in cycles if not c.success]
+    failed = [
+        {"cycle": c.index, "slot": c.slot, "reason": c.reason, "detail": c.detail}
+        for c in cycles
+        if not c.success
+    ]
     notes = notes_of(watched.ik)
     if not records and not failed and not notes:
         return []

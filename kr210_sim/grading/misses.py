@@ -1,7 +1,7 @@
 """What the failed cases missed, when no pattern of :mod:`kr210_sim.grading.diagnose` explains
-them: ``same_offset`` (every answer off by one vector) and ``failed_cases`` (the cases named,
-with the tolerance each missed, in the student's terms), so that no ``fail`` goes without its
-cause.
+them: ``same_offset`` (every answer off by one vector), ``failed_cases`` (the cases named,
+with the tolerance each missed, in the student's terms) and ``failed_cycles`` (the run's failed
+cycles no finding names), so that no ``fail`` goes without its cause.
 
 * ``same_offset``: the answers that miss their position (at least
   :data:`~kr210_sim.grading.diagnose.FEW`) mostly miss it by the same vector, in base_link or in
@@ -10,6 +10,8 @@ cause.
   :func:`~kr210_sim.grading.finding.spared`, are not failed), the worst named with how far each
   is from its pose against what is allowed; a *near miss* (every one within
   :data:`NEAR` times the tolerance) is said to be a question of precision, not of the formula.
+* ``failed_cycles``: the run's failed cycles that no branch finding (``wrist_flip``,
+  ``two_pi``) names, each with its reason and the run's own words for it.
 """
 
 from __future__ import annotations
@@ -196,3 +198,38 @@ def failed_cases(
             "a3 = -0.054, d4 = 1.5, d7 = 0.303 m)"
         )
     return Finding("failed_cases", text)
+
+
+#: Words of a failed cycle's detail that a finding of its own names (``wrist_flip``,
+#: ``two_pi``).
+NAMED_CYCLES = ("wrist flip", "2pi jump")
+#: Characters of a failed cycle's detail quoted.
+DETAIL = 240
+
+
+def failed_cycles(failed: Sequence[dict[str, Any]]) -> Finding | None:
+    """``failed_cycles`` (see the module doc), or None when no cycle failed unnamed.
+
+    Args:
+        failed: The run's failed cycles, each with ``cycle`` and ``detail`` (and, when known,
+            ``slot`` and ``reason``).
+    """
+    others = [c for c in failed if not any(w in str(c.get("detail") or "") for w in NAMED_CYCLES)]
+    if not others:
+        return None
+
+    def one(c: dict[str, Any]) -> str:
+        slot = f" (slot {c['slot']})" if c.get("slot") else ""
+        detail = " ".join(str(c.get("detail") or "").split())
+        detail = detail if len(detail) <= DETAIL else detail[: DETAIL - 3] + "..."
+        why = ": ".join(str(v) for v in (c.get("reason"), detail) if v)
+        return f"cycle {c['cycle']}{slot}: {why or 'failed'}"
+
+    n = len(others)
+    shown = "; ".join(one(c) for c in others[:SHOWN])
+    more = f"; and {n - SHOWN} more" if n > SHOWN else ""
+    return Finding(
+        "failed_cycles",
+        f"{n} cycle{'s' if n != 1 else ''} of the run failed: {shown}{more} (each cycle's "
+        "replay command films it)",
+    )

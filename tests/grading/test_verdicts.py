@@ -227,3 +227,21 @@ def test_the_ik_check_text_lists_every_finding() -> None:
     assert f"  diagnosis ({len(found)}):" in text
     for f in found:
         assert f"    {f.code}: " in text
+
+
+def test_failed_cycles_no_other_finding_names_are_named_with_their_reason() -> None:
+    cases = fixed_cases(KIN)[:5]
+    records = [
+        case_record(KIN, c, assess(KIN, c.T, c.q_ref, KIN.nearest(c.T, c.q_ref))) for c in cases
+    ]
+    failed = [
+        {"cycle": 2, "slot": 5, "reason": "no_path", "detail": "approach move: no path\nfound"},
+        {"cycle": 3, "slot": 1, "reason": "ik_failed", "detail": "x moves joint_4: wrist flip"},
+    ]
+    found = {f.code: f.text for f in diagnose(KIN, records, [c.T for c in cases], failed)}
+    assert found["failed_cycles"] == (
+        "1 cycle of the run failed: cycle 2 (slot 5): no_path: approach move: no path found "
+        "(each cycle's replay command films it)"
+    )
+    assert "cycle 3 failed on a wrist flip" in found["wrist_flip"]
+    assert "failed_cases" not in found  # every case passed
