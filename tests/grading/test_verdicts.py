@@ -158,6 +158,19 @@ def test_ik_check_gives_grade_s_diagnoses_and_python_2_s_notes(
     assert "euler_order" in codes and "python2" in codes
 
 
+def test_ik_check_says_which_failed_cases_grade_spares_a_ros_form_server(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ros_verdicts.write(tmp_path, ("straight",))
+    argv = ["ik-check", "--ik", str(tmp_path / "straight"), "--cases", "0"]
+    assert main([*argv, "--report", str(tmp_path / "ik.json")]) == 1
+    out = capsys.readouterr().out
+    assert "  1 of the failed cases grade does not fail a ROS-form server for (the exact " in out
+    assert (
+        "    singular_wrist: 1 answer with the wrist straight (theta5 = 0, e.g. case q5 = 0" in out
+    )
+
+
 def test_run_gives_grade_s_diagnoses(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``run --ik`` with the 0.054 m drop left out: every cycle fails, and the run says why, in
     its output and its report, from the answers it asked for."""
