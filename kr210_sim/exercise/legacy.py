@@ -11,9 +11,9 @@ day. :func:`install` does this in the process that runs a ROS-form server, and o
   removed one is noted.
 * **Ragged arrays**: ``numpy.array([3, [1, 2]])`` (and ``asarray``, ``asanyarray``) made an
   object array then; NumPy 1.24 and later raise "setting an array element with a sequence".
-  Where that is the error and no ``dtype`` was given, the call is made again with
-  ``dtype=object``, as NumPy 1.11-1.13 made it, and the line is noted. Any other error, or one
-  with a ``dtype``, is raised as it was.
+  Where that is the error, no ``dtype`` was given and the call is the student's (not a
+  library's, not ours), the call is made again with ``dtype=object``, as NumPy 1.11-1.13 made
+  it, and the line is noted. Any other error, or one with a ``dtype``, is raised as it was.
 * ``pickle`` reads and writes files as Python 2's did: through a file opened in text mode (Python
   2 made no difference on Linux), and Python 2's pickled ``str`` (a NumPy array's data, say) read
   as bytes-like Latin-1 text, which NumPy and plain strings take.
@@ -60,10 +60,14 @@ def note(kind: str, text: str, depth: int = 2) -> None:
     _notes.append(f"{COMPAT}{where} line {frame.f_lineno}: {text}")
 
 
+#: kr210_sim's own folder: its code gets today's behaviours, never the course's.
+_OURS = str(Path(__file__).resolve().parents[1]) + "/"
+
+
 def _library(filename: str) -> bool:
-    """Whether ``filename`` is the interpreter's or an installed library's (a probe such as
-    ``hasattr(numpy, "float")`` there is no use of the student's)."""
-    roots = {sys.prefix, sys.base_prefix, sys.exec_prefix}
+    """Whether ``filename`` is the interpreter's, an installed library's or kr210_sim's (a probe
+    such as ``hasattr(numpy, "float")`` there is no use of the student's)."""
+    roots = {sys.prefix, sys.base_prefix, sys.exec_prefix, _OURS.rstrip("/")}
     return filename.startswith("<frozen") or any(filename.startswith(r + "/") for r in roots)
 
 
@@ -198,6 +202,8 @@ def _ragged(call: Callable[..., Any]) -> Callable[..., Any]:
             dtype = args[0] if args else kwargs.get("dtype")
             if dtype is not None or "inhomogeneous" not in str(exc):
                 raise
+            if _library(sys._getframe(1).f_code.co_filename):
+                raise  # a library's call, or ours: today's NumPy, as they were written for
             kwargs["dtype"] = object
             try:
                 out = call(obj, *args[1:], **kwargs)

@@ -115,3 +115,19 @@ def test_each_use_of_a_removed_name_is_noted_once_per_line() -> None:
     assert lines[4].startswith("compatibility: <string> line 8: needed numpy.asscalar")
     assert lines[5].startswith("compatibility: <string> line 9: needed collections.Mapping")
     assert len(lines) == 6
+
+
+def test_a_library_s_ragged_array_is_refused_as_today() -> None:
+    """Only the student's calls get the course's NumPy: kr210_sim's own (and an installed
+    library's) raise as they were written for."""
+    out = _fresh(
+        """
+        from kr210_sim.exercise import legacy as ours
+        try:  # code of a module of ours calling numpy.array on a ragged list
+            exec(compile("import numpy; numpy.array([1, [2]])", ours.__file__, "exec"))
+        except ValueError as exc:
+            print("raised", str(exc).split(".")[0])
+        print(legacy.take_notes())
+        """
+    )
+    assert out.splitlines() == ["raised setting an array element with a sequence", "[]"]
