@@ -101,6 +101,12 @@ def run(args: argparse.Namespace) -> int:
         config = RunConfig(cycles=args.cycles, seed=args.seed, slot=args.slot)
         write_json_atomic(check_writable(args.report), unstarted_report(config, exc))
         return exit_code(exc)
+    watched = None
+    if ik is not None:  # every answer the run asks for is kept, for the diagnosis
+        from kr210_sim.grading.explain import Watched
+
+        watched = Watched(ik)
+        ik = watched.user_ik()
     video = None
     given = _video_options(args)
     if args.video is not None:
@@ -136,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
         result = exc.report
     assert isinstance(result, RunReport)
     _print_run(result, video)
+    if watched is not None:
+        _print_diagnosis(result, watched)
     if interrupted is not None:
         if result.video_error is not None:
             sys.stderr.write(f"kr210_sim: error: {result.video_error}\n")
@@ -178,6 +186,21 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
         out.write(f"  video: {video.path} {written}\n")
     if result.plot_paths:
         out.write(f"  plots: {', '.join(str(p) for p in result.plot_paths)}\n")
+
+
+def _print_diagnosis(result: RunReport, watched: Any) -> None:
+    """The mistakes of the user's IK that the run's answers show, as ``grade`` names them; in
+    the report too (``diagnosis``), when one was written."""
+    from kr210_sim.grading.explain import finding_lines, run_findings
+    from kr210_sim.robot.description import load_robot
+    from kr210_sim.robot.kinematics import Kinematics
+    from kr210_sim.util.outputs import write_json_atomic
+
+    found = run_findings(Kinematics(load_robot()), watched, result.cycles)
+    for line in finding_lines(found):
+        sys.stdout.write(line + "\n")
+    if result.path is not None and result.path.is_file():
+        write_json_atomic(result.path, {**result.data, "diagnosis": [f.to_dict() for f in found]})
 
 
 def replay(args: argparse.Namespace) -> int:

@@ -1,19 +1,82 @@
-"""The libraries as a 2017 IK server found them: names they had then, put back.
+"""The libraries as a 2017 IK server found them: names and behaviours they had then, put back,
+and each use of them noted.
 
-An IK server of the exercise ran on Python 2.7 with the NumPy of its day. Names it used that
-were removed since (``numpy.float``, ``numpy.asscalar``, ``time.clock``, ``collections.Mapping``,
-``fractions.gcd``) are put back as the objects they stood for, and ``pickle`` reads and writes
-files as Python 2's did: through a file opened in text mode (Python 2 made no difference on
-Linux), and Python 2's pickled ``str`` (a NumPy array's data, say) read as bytes-like
-Latin-1 text, which NumPy and plain strings take. :func:`install` does this in the process that
-runs a ROS-form server, and only there; it never replaces a name that exists.
+An IK server of the exercise ran on Python 2.7 with the NumPy (1.11-1.13) and sympy (1.1) of its
+day. :func:`install` does this in the process that runs a ROS-form server, and only there:
+
+* **Names** removed since (``numpy.float``, ``numpy.asscalar``, ``time.clock``,
+  ``collections.Mapping``, ``fractions.gcd``, ``base64.encodestring``) answer as the objects they
+  stood for, through the module's ``__getattr__`` (PEP 562), which Python asks only for a name
+  the module does not have: a name that exists is never replaced, and each line that used a
+  removed one is noted.
+* **Ragged arrays**: ``numpy.array([3, [1, 2]])`` (and ``asarray``, ``asanyarray``) made an
+  object array then; NumPy 1.24 and later raise "setting an array element with a sequence".
+  Where that is the error, no ``dtype`` was given and the call is the student's (not a
+  library's, not ours), the call is made again with ``dtype=object``, as NumPy 1.11-1.13 made
+  it, and the line is noted. Any other error, or one with a ``dtype``, is raised as it was.
+* ``pickle`` reads and writes files as Python 2's did: through a file opened in text mode (Python
+  2 made no difference on Linux), and Python 2's pickled ``str`` (a NumPy array's data, say) read
+  as bytes-like Latin-1 text, which NumPy and plain strings take.
+
+The notes (:func:`take_notes`, each starting with :data:`COMPAT`) go back with the answers, so
+the verdict names every compatibility a server needed; the Python 2 semantics are
+:mod:`kr210_sim.exercise.py2`'s. What else changed and is *not* put back, and why, is in the
+how-to on diagnoses (``docs/how-to/diagnoses.md``): sympy 1.13's ``Float(2.0) != 2``, NumPy 2's
+scalar promotion (NEP 50), Python 3's ordering of mixed types.
 """
 
 from __future__ import annotations
 
+import functools
 import io
 import pickle
+import sys
+import types
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
+
+#: How every compatibility note begins (the diagnosis tells them from Python 2's).
+COMPAT = "compatibility: "
+#: Most notes kept (the first use per file, line and kind).
+MAX_NOTES = 50
+#: The NumPy calls that made object arrays of ragged lists.
+RAGGED_CALLS = ("array", "asarray", "asanyarray")
+_notes: list[str] = []
+_seen: set[tuple[str, int, str]] = set()
+
+
+def note(kind: str, text: str, depth: int = 2) -> None:
+    """Note that the code ``depth`` frames up needed ``kind`` (once per file, line and kind)."""
+    try:
+        frame = sys._getframe(depth)
+    except ValueError:  # pragma: no cover - no such frame
+        return
+    key = (frame.f_code.co_filename, frame.f_lineno, kind)
+    if key in _seen or len(_seen) >= MAX_NOTES or _library(frame.f_code.co_filename):
+        return
+    _seen.add(key)
+    where = Path(frame.f_code.co_filename).name
+    _notes.append(f"{COMPAT}{where} line {frame.f_lineno}: {text}")
+
+
+#: kr210_sim's own folder: its code gets today's behaviours, never the course's.
+_OURS = str(Path(__file__).resolve().parents[1]) + "/"
+
+
+def _library(filename: str) -> bool:
+    """Whether ``filename`` is the interpreter's, an installed library's or kr210_sim's (a probe
+    such as ``hasattr(numpy, "float")`` there is no use of the student's)."""
+    roots = {sys.prefix, sys.base_prefix, sys.exec_prefix, _OURS.rstrip("/")}
+    return filename.startswith("<frozen") or any(filename.startswith(r + "/") for r in roots)
+
+
+def take_notes() -> list[str]:
+    """The compatibility notes since the last call."""
+    out = _notes[:]
+    del _notes[:]
+    return out
+
 
 #: NumPy names removed since 2017, and what they were.
 NUMPY_ALIASES = {
@@ -81,22 +144,81 @@ def _resolve(dotted: str) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
+def _removed_names(module: types.ModuleType, names: dict[str, Callable[[], Any]], had: str) -> None:
+    """Answer ``names`` (each made by its function when asked) through ``module.__getattr__``,
+    noting each use; ``had``: who had them ("numpy 1.11-1.13")."""
+    before = module.__dict__.get("__getattr__")
+    if getattr(before, "_kr210_legacy", False):
+        return
+    today = f"{module.__name__} {getattr(module, '__version__', '')}".strip()
+    if module is sys.modules.get("time") or not hasattr(module, "__version__"):
+        today = f"Python {sys.version_info[0]}.{sys.version_info[1]}'s {module.__name__}"
+
+    def __getattr__(name: str) -> Any:
+        make = names.get(name)
+        if make is None:
+            if before is not None:
+                return before(name)
+            raise AttributeError(f"module {module.__name__!r} has no attribute {name!r}")
+        note(
+            f"name {module.__name__}.{name}",
+            f"needed {module.__name__}.{name}, which {had} had and {today} has not",
+        )
+        return make()
+
+    __getattr__._kr210_legacy = True  # type: ignore[attr-defined]
+    module.__getattr__ = __getattr__  # type: ignore[method-assign]
+
+
+def _missing(module: types.ModuleType, names: dict[str, Callable[[], Any]]) -> dict[str, Any]:
+    return {k: v for k, v in names.items() if k not in vars(module)}
+
+
 def _numpy() -> None:
     import numpy as np
 
-    for name, target in NUMPY_ALIASES.items():
-        if name not in vars(np):
+    names: dict[str, Callable[[], Any]] = {
+        name: functools.partial(_resolve, target) for name, target in NUMPY_ALIASES.items()
+    }
+    names.update({name: functools.partial(float, value) for name, value in NUMPY_CONSTANTS.items()})
+    names["asscalar"] = lambda: lambda a: a.item()
+    names["asfarray"] = lambda: lambda a, dtype=np.float64: np.asarray(a, dtype=dtype)
+    _removed_names(np, _missing(np, names), "numpy 1.11-1.13")
+    for name in RAGGED_CALLS:
+        call = getattr(np, name)
+        if not getattr(call, "_kr210_legacy", False):
+            setattr(np, name, _ragged(call))
+
+
+def _ragged(call: Callable[..., Any]) -> Callable[..., Any]:
+    """``call`` (``numpy.array`` or a kin) making an object array of a ragged list, as NumPy
+    1.11-1.13 did, where today's raises (see the module doc)."""
+
+    @functools.wraps(call)
+    def made(obj: Any, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return call(obj, *args, **kwargs)
+        except ValueError as exc:
+            dtype = args[0] if args else kwargs.get("dtype")
+            if dtype is not None or "inhomogeneous" not in str(exc):
+                raise
+            if _library(sys._getframe(1).f_code.co_filename):
+                raise  # a library's call, or ours: today's NumPy, as they were written for
+            kwargs["dtype"] = object
             try:
-                setattr(np, name, _resolve(target))
-            except AttributeError:  # pragma: no cover - a NumPy without the target
-                pass
-    for name, value in NUMPY_CONSTANTS.items():
-        if name not in vars(np):
-            setattr(np, name, value)
-    if "asscalar" not in vars(np):
-        np.asscalar = lambda a: a.item()  # type: ignore[attr-defined]
-    if "asfarray" not in vars(np):
-        setattr(np, "asfarray", lambda a, dtype=np.float64: np.asarray(a, dtype=dtype))  # noqa: B010
+                out = call(obj, *args[1:], **kwargs)
+            except ValueError:
+                raise exc from None
+        note(
+            "ragged",
+            f"needed numpy<1.24's ragged arrays: numpy.{call.__name__} of a ragged list "
+            f"(shape {out.shape}) made an object array, as numpy 1.11-1.13 did; numpy >= 1.24 "
+            "raises 'setting an array element with a sequence'",
+        )
+        return out
+
+    made._kr210_legacy = True  # type: ignore[attr-defined]
+    return made
 
 
 def _binary(file: Any) -> Any:
@@ -146,20 +268,18 @@ def _stdlib() -> None:
     import math
     import time
 
-    if not hasattr(time, "clock"):
-        time.clock = time.perf_counter  # type: ignore[attr-defined]
-    for name in COLLECTIONS_ABC:
-        if not hasattr(collections, name):
-            setattr(collections, name, getattr(collections.abc, name))
-    if not hasattr(fractions, "gcd"):
-        fractions.gcd = math.gcd  # type: ignore[attr-defined]
-    if not hasattr(base64, "encodestring"):
-        base64.encodestring = base64.encodebytes  # type: ignore[attr-defined]
-        base64.decodestring = base64.decodebytes  # type: ignore[attr-defined]
+    _removed_names(time, _missing(time, {"clock": lambda: time.perf_counter}), "Python 2.7")
+    abc: dict[str, Callable[[], Any]] = {
+        name: functools.partial(getattr, collections.abc, name) for name in COLLECTIONS_ABC
+    }
+    _removed_names(collections, _missing(collections, abc), "Python 2.7")
+    _removed_names(fractions, _missing(fractions, {"gcd": lambda: math.gcd}), "Python 2.7")
+    old = {"encodestring": lambda: base64.encodebytes, "decodestring": lambda: base64.decodebytes}
+    _removed_names(base64, _missing(base64, old), "Python 2.7")
 
 
 def install() -> None:
-    """Put the old names back (see the module doc); safe to call twice."""
+    """Put the old names and behaviours back (see the module doc); safe to call twice."""
     _numpy()
     _pickle()
     _stdlib()

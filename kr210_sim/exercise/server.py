@@ -410,8 +410,9 @@ class RosServer:
 
     def take_notes(self) -> list[str]:
         """What Python 2 semantics changed since the last call (:class:`~kr210_sim.exercise.
-        py2.Notes`)."""
-        return self.notes.take()
+        py2.Notes`), and the compatibility the libraries needed (:mod:`~kr210_sim.exercise.
+        legacy`)."""
+        return self.notes.take() + legacy.take_notes()
 
 
 def _default_roots(folder: Path) -> list[Path]:

@@ -40,6 +40,12 @@ The mistakes of the original exercise's servers (:mod:`kr210_sim.exercise`):
 * ``python2``: where Python 2 semantics changed what the code computed, as they did under ROS
   (``1/2 == 0``, a list comprehension's variable overwriting another value), from the notes the
   server's process sent (:class:`~kr210_sim.exercise.py2.Notes`).
+* ``compat``: what the course's libraries did and today's do not, which the server needed and
+  was given (:mod:`kr210_sim.exercise.legacy`: a ragged array, ``numpy.float``): our
+  environment, not the student's mistake.
+* ``same_offset``, ``failed_cases`` and ``failed_cycles`` (:mod:`kr210_sim.grading.misses`):
+  every answer off by one vector; and, last, the failed cases and cycles nothing above explains,
+  each named with what it missed.
 
 The figures come from :mod:`kr210_sim.grading.ikcheck` records (and, for ``gripper_frame``, the
 cases' poses, whose rotations the records do not keep).
@@ -58,6 +64,8 @@ from kr210_sim.grading.finding import STRAIGHT, Finding, server_mistakes, singul
 from kr210_sim.grading.finding import answered as _answered
 from kr210_sim.grading.finding import exact_position as _exact_position
 from kr210_sim.grading.finding import wrong_rotation as _wrong_rotation
+from kr210_sim.grading.misses import failed_cases, same_offset
+from kr210_sim.grading.misses import failed_cycles as _unnamed_cycles
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.ik_guard import ORIENTATION_TOL, POSITION_TOL
 
@@ -432,7 +440,8 @@ def diagnose(
         notes: What Python 2 semantics changed in an original-form server's code (its
             sandbox's notes).
         no_q_ref: The IK was never sent ``q_ref`` (an original-form server: a request holds
-            poses only), so what to do is said without it.
+            poses only), so what to do is said without it, and the cases it is not failed for
+            (:func:`~kr210_sim.grading.finding.spared`) are not named as failures.
 
     Returns:
         The findings, most telling first (empty when nothing is recognised).
@@ -449,7 +458,11 @@ def diagnose(
         )
         found += [f] if f is not None else []
         if not any(f.code == "wrist_angles" for f in found):
-            f = gripper_length(kin, records, poses) or theta3_offset(records)
+            f = (
+                gripper_length(kin, records, poses)
+                or same_offset(kin, records, poses)
+                or theta3_offset(records)
+            )
             found += [f] if f is not None else []
     if not any(f.code in ("stale_rotation", "euler_order") for f in found):
         f = singular_wrist(records)
@@ -510,4 +523,5 @@ def diagnose(
                 f"{nones[0]['name']})",
             )
         )
-    return found
+    last = (failed_cases(records, found, ros=no_q_ref), _unnamed_cycles(failed_cycles))
+    return found + [f for f in last if f is not None]  # every failed case and cycle named

@@ -108,28 +108,43 @@ def ik_debug_rows(kin: Kinematics, records: list[dict[str, Any]]) -> list[dict[s
     return rows
 
 
+#: Width of a millimetre column and of a theta column [characters], each with at least one
+#: space before its figure, however large (a miss of 100 m still keeps its columns apart).
+MM_WIDTH = 10
+THETA_WIDTH = 8
+
+
+def _cell(value: float | None, width: int) -> str:
+    """``value`` with 4 decimals right-aligned in ``width`` characters, always after a space
+    ("-" for None)."""
+    text = "-" if value is None else f"{value:.4f}"
+    return " " + text.rjust(width - 1)
+
+
 def ik_debug_table(rows: list[dict[str, Any]]) -> list[str]:
     """The lines of the ik-check table for :func:`ik_debug_rows` (none without rows): per case
     the wrist-centre error and the end-effector error in mm (x, y, z and the distance) and the
-    six theta errors [rad], as ``IK_debug.py`` printed them."""
+    six theta errors [rad], as ``IK_debug.py`` printed them; each figure after a space, so
+    columns never run into each other."""
     if not rows:
         return []
+    keys = ("x", "y", "z", "overall")
 
     def xyz(d: dict[str, float] | None) -> str:
-        keys = ("x", "y", "z", "overall")
-        return "".join(f"{'-':>8}" if d is None else f"{1000 * d[k]:8.4f}" for k in keys)
+        return "".join(_cell(None if d is None else 1000 * d[k], MM_WIDTH) for k in keys)
 
-    axes = "".join(f"{k:>8}" for k in ("x", "y", "z", "overall"))
-    joints = "".join(f"{j:>7}" for j in range(1, 7))
+    axes = "".join(f"{k:>{MM_WIDTH}}" for k in keys)
+    joints = "".join(f"{j:>{THETA_WIDTH}}" for j in range(1, 7))
+    span, theta_span = 4 * MM_WIDTH, 6 * THETA_WIDTH
     out = [
         "  IK_debug.py's cases (theta errors against Gazebo's joint angles, given to 0.01 rad):",
-        f"    {'case':<5}{'wrist centre error [mm]':>32}  {'theta errors [rad]':>42}"
-        f"  {'end effector error [mm]':>32}",
+        f"    {'case':<5}{'wrist centre error [mm]':>{span}}  {'theta errors [rad]':>{theta_span}}"
+        f"  {'end effector error [mm]':>{span}}",
         f"    {'':<5}{axes}  {joints}  {axes}",
     ]
     for row in rows:
         th = row["theta_errors_rad"] or [None] * 6
-        thetas = "".join(f"{'-':>7}" if v is None else f"{v:7.4f}" for v in th)
+        thetas = "".join(_cell(v, THETA_WIDTH) for v in th)
         out.append(
             f"    {row['case']:<5}{xyz(row['wrist_centre_error_m'])}  {thetas}"
             f"  {xyz(row['end_effector_error_m'])}"

@@ -37,6 +37,8 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, UnreachablePoseError
+from kr210_sim.grading.diagnose import diagnose
+from kr210_sim.grading.finding import finding_lines, notes_of, spared
 from kr210_sim.grading.ik_debug import ik_debug_poses, ik_debug_rows, ik_debug_table
 from kr210_sim.robot.description import ARM_JOINTS, RobotDescription, load_robot
 from kr210_sim.robot.kinematics import Kinematics
@@ -295,6 +297,7 @@ def build_report(
     kin: Kinematics | None = None,
     planned: int | None = None,
     interrupted: BaseException | None = None,
+    diagnosis: list[dict[str, str]] | None = None,
 ) -> dict[str, Any]:
     """The JSON-ready report of a check.
 
@@ -308,6 +311,8 @@ def build_report(
             robot's).
         planned: Cases the check was to try (None: as many as ``records``).
         interrupted: The interrupt that stopped it after ``len(records)`` cases, or None.
+        diagnosis: The findings, as ``grade`` makes them
+            (:func:`~kr210_sim.grading.diagnose.diagnose`; None: none made).
     """
     from kr210_sim.util.versions import versions
 
@@ -325,6 +330,7 @@ def build_report(
         "cases_planned": len(records) if planned is None else planned,
         "interrupted": None if interrupted is None else signal_name(interrupted),
         "ik_debug": ik_debug_rows(kin or Kinematics(load_robot()), records),
+        "diagnosis": diagnosis or [],
         "cases": records,
         "wall_time_s": wall_time,
         "versions": versions(),
@@ -365,6 +371,13 @@ def table(report: dict[str, Any]) -> str:
             f"e.g. {flagged[0]['name']}): run fails such a jump only between neighbouring "
             "straight-line samples"
         )
+    if report.get("spared_cases"):
+        rows.append(
+            f"  {report['spared_cases']} of the failed cases grade does not fail a ROS-form "
+            "server for (the exact singular wrist, q5 = 0, or a pose only another branch "
+            "reaches inside the limits): it is sent no joint state"
+        )
+    rows += finding_lines(report.get("diagnosis") or [])
     verdict = "PASS" if s["passed"] == s["cases"] else "FAIL"
     if report.get("interrupted"):
         planned = report["cases_planned"]
@@ -492,7 +505,9 @@ def run_check(
     """Check ``ik`` on the fixed cases and ``n_random`` random ones; write report and plots.
 
     The cases are poses of ``robot`` (default: the committed URDF), and its kinematics judge
-    the answers. Ctrl-C, SIGTERM or SIGHUP stops the check: the report (and the plots) of the
+    the answers. The report's ``diagnosis`` and the text name the mistakes as ``grade`` does
+    (:func:`~kr210_sim.grading.diagnose.diagnose`, with the notes a ROS-form server sent).
+    Ctrl-C, SIGTERM or SIGHUP stops the check: the report (and the plots) of the
     cases tried so far are written whole, marked ``interrupted``, and the result carries the
     interrupt.
 
@@ -515,6 +530,7 @@ def run_check(
     kin = Kinematics(robot if robot is not None else load_robot())
     records: list[dict[str, Any]] = []
     interrupted: KeyboardInterrupt | None = None
+    cases: list[Case] = []
     try:
         cases = fixed_cases(kin) + random_cases(kin, n_random, seed)
         check(kin, ik, cases, progress, records)
@@ -523,7 +539,13 @@ def run_check(
     with winding_up(interrupted):  # further signals wait until the report is written
         planned = len(fixed_cases(kin)) + n_random if interrupted is not None else None
         wall = time.perf_counter() - wall0
-        report = build_report(ik.spec, n_random, seed, records, wall, kin, planned, interrupted)
+        poses = [c.T for c in cases[: len(records)]]
+        found = diagnose(kin, records, poses, (), notes_of(ik), no_q_ref=ik.batch is not None)
+        diagnosis = [f.to_dict() for f in found]
+        report = build_report(
+            ik.spec, n_random, seed, records, wall, kin, planned, interrupted, diagnosis
+        )
+        report["spared_cases"] = sum(spared(r, ros=ik.batch is not None) for r in records)
         if report_path is not None:
             write_json_atomic(report_path, report)
         plots = tuple(write_plots(plots_dir, records)) if plots_dir is not None else ()

@@ -42,16 +42,15 @@ import numpy as np
 import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError
-from kr210_sim.grading.budget import FIRST, Budget, chunks, need_text, split
+from kr210_sim.grading.budget import Budget, chunks, need_text, split
 from kr210_sim.grading.diagnose import diagnose
-from kr210_sim.grading.finding import grader_code
+from kr210_sim.grading.finding import exact_singular, grader_code, one_branch
 from kr210_sim.grading.ikcheck import Case, check, fixed_cases, random_cases, summarise
 from kr210_sim.grading.record import VERDICTS, blank_record, seal
 from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.bwrap import JailUnavailable
 from kr210_sim.sandbox.confine import Unconfined
-from kr210_sim.sandbox.ik_guard import ORIENTATION_TOL, POSITION_TOL
 from kr210_sim.sandbox.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.sandbox.jail import Jail
 from kr210_sim.sandbox.user_ik import UserIk
@@ -240,30 +239,19 @@ def replay_command(job: StudentJob, cycle: int) -> str:
     )
 
 
-def one_branch(r: dict[str, Any]) -> bool:
-    """Whether case record ``r`` failed only because its answer, which reaches the pose, lies
-    outside the joint limits, on a pose outside the exercise's own groups: what an IK of one
-    branch (the exercise's) does where only another branch reaches the pose inside them."""
-    return (
-        r["group"] not in FIRST  # the exercise's own cases: IK_debug.py's and the cell's
-        and not r["passed"]
-        and r["q"] is not None
-        and r["error"] is None
-        and not r["within_limits"]
-        and (r["position_error_m"] or 0.0) <= POSITION_TOL
-        and (r["orientation_error_rad"] or 0.0) <= ORIENTATION_TOL
-    )
-
-
 def _ik_figures(records: list[dict[str, Any]], total: int) -> dict[str, Any]:
     """The ik-check's figures: ``cases`` are those tried, ``cases_total`` those there were,
-    ``one_branch`` the failed cases :func:`one_branch` names."""
+    ``one_branch`` and ``exact_singular`` the failed cases
+    :func:`~kr210_sim.grading.finding.one_branch` and
+    :func:`~kr210_sim.grading.finding.exact_singular` name (a ROS-form server is not failed for
+    them)."""
     s = summarise(records)
     return {
         "cases": s["cases"],
         "cases_total": total,
         "passed": s["passed"],
         "one_branch": sum(one_branch(r) for r in records),
+        "exact_singular": sum(exact_singular(r) and not one_branch(r) for r in records),
         "max_position_error_m": s["max_position_error_m"],
         "max_orientation_error_rad": s["max_orientation_error_rad"],
         "outside_limits": s["outside_limits"],
@@ -321,19 +309,28 @@ def _verdict(
     A ROS-form server (``ros``) is graded on what the exercise asked of it: its one branch
     inside the limits for the exercise's own cases (:data:`~kr210_sim.grading.budget.FIRST`), and
     poses reached elsewhere; a case that only another branch reaches inside the limits
-    (``ik["one_branch"]``) is counted and said, not failed. A function of our form is asked for
-    the nearest of all branches (it is given ``q_ref``), so every case counts."""
+    (``ik["one_branch"]``), and a case at the exact singular wrist (``ik["exact_singular"]``,
+    q5 = 0, a pose the exercise never asked for), are counted and said, not failed. A function
+    of our form is asked for the nearest of all branches and given ``q_ref``, which answers the
+    singular wrist too, so every case counts."""
     cut = budget is not None and budget.cut_run
     cycles = run["cycles_run"] if cut else job.cycles
     need = math.ceil(job.min_success * cycles - 1e-9)
-    spared = ik.get("one_branch", 0) if ros else 0
-    ik_ok = ik["passed"] + spared == ik["cases"]
+    branch = ik.get("one_branch", 0) if ros else 0
+    straight = ik.get("exact_singular", 0) if ros else 0
+    ik_ok = ik["passed"] + branch + straight == ik["cases"]
     run_ok = run["successes"] >= need
     cases = f"ik-check {ik['passed']}/{ik['cases']} cases"
-    if spared:
+    if branch:
         cases += (
-            f" ({spared} more answers reach their pose outside the joint limits, where only "
+            f" ({branch} more answers reach their pose outside the joint limits, where only "
             "another branch reaches it inside them: one branch, as the exercise's IK, not failed)"
+        )
+    if straight:
+        cases += (
+            f" ({straight} more at the exact singular wrist, q5 = 0, where only theta4 + theta6 "
+            "is defined and a server is sent no joint state to split them by: a pose the "
+            "exercise never asked for, not failed)"
         )
     if ik["cases"] < ik.get("cases_total", ik["cases"]):
         cases += f" (tried {ik['cases']} of {ik['cases_total']} in --timeout {job.timeout:g} s)"

@@ -28,7 +28,7 @@ import numpy.typing as npt
 from kr210_sim.errors import IkSpecError
 from kr210_sim.sandbox import harness
 from kr210_sim.sandbox.ik_wire import receive, send, short
-from kr210_sim.sandbox.user_ik import UserIk, load_ik
+from kr210_sim.sandbox.user_ik import UserIk, load_ik, where_raised
 from kr210_sim.util.processes import die_with_parent
 
 FloatArray = npt.NDArray[np.float64]
@@ -46,7 +46,8 @@ def _fault(exc: BaseException) -> dict[str, Any]:
         return {"memory": True}
     if isinstance(exc, SystemExit):
         return {"exit": exc.code if isinstance(exc.code, int | None) else short(str(exc.code))}
-    return {"raised": short(type(exc).__name__, 200), "message": short(str(exc))}
+    where = where_raised(exc)  # " (file.py line N)", after a message cut short too
+    return {"raised": short(type(exc).__name__, 200), "message": short(str(exc)) + where}
 
 
 def describe(out: Any) -> dict[str, Any]:

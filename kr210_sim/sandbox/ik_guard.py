@@ -32,7 +32,7 @@ import numpy.typing as npt
 from kr210_sim.errors import IkFailedError, UnreachablePoseError
 from kr210_sim.robot.description import ARM_JOINTS
 from kr210_sim.robot.kinematics import LIMIT_SLACK, TWO_PI, Kinematics
-from kr210_sim.sandbox.user_ik import UserIk, describe_exception
+from kr210_sim.sandbox.user_ik import UserIk, describe_exception, where_raised
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -243,7 +243,7 @@ def assess(
         return Assessment(None, error, problem, none, nan, nan, nan, False, (), nan, -1, call_time)
 
     if isinstance(raw, BaseException):
-        text = _exception_text(raw)
+        text = _exception_text(raw) + where_raised(raw)
         return unusable(f"raised {text}", error=text)
     if raw is None:
         return unusable("returned None (unreachable)", none=True)

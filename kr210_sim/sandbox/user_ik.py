@@ -178,6 +178,28 @@ def describe_exception(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
 
 
+def where_raised(exc: BaseException) -> str:
+    """``" (file.py line N)"``: the innermost frame of ``exc``'s traceback in the user's code
+    (not ours, not the interpreter's or an installed library's), as a ROS-form server's
+    exceptions say it; "" when there is none (or the message ends with a place already)."""
+    import re
+    import traceback
+
+    ours = str(Path(__file__).resolve().parents[1]) + os.sep
+    libraries = tuple(p + os.sep for p in {sys.prefix, sys.base_prefix, sys.exec_prefix})
+    found = ""
+    try:
+        for frame in traceback.extract_tb(exc.__traceback__):
+            name = frame.filename
+            if name.startswith(("<", ours, *libraries)):
+                continue
+            found = f" ({Path(name).name} line {frame.lineno})"
+        located = re.search(r"\(\S+ line \d+\)$", str(exc).rstrip())  # said already
+        return "" if located else found
+    except Exception:  # a traceback that cannot be read: no place
+        return ""
+
+
 def split_spec(spec: str) -> tuple[str, str]:
     """``(module or file, function name)`` of a SPEC; the function name follows the last colon.
 

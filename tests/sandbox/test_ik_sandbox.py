@@ -83,7 +83,7 @@ def test_raised_none_and_junk_are_judged_as_in_process(tmp_path: Path) -> None:
             assess(kinematics.committed(), T, Q, _raw(box, T, q0)).problem
             for q0 in (0.7, 0.3, -0.3, -0.7)
         ]
-    assert problems[0] == "raised ValueError: no branch here"
+    assert problems[0] == "raised ValueError: no branch here (odd.py line 4)"  # its line, too
     assert problems[1] == "returned None (unreachable)"
     assert problems[2].startswith("returned str, not six numbers (")
     assert problems[3] == "returned shape (2, 2), not six angles"
@@ -397,7 +397,7 @@ def test_huge_texts_and_frames_are_unusable_answers_not_crashes(tmp_path: Path) 
         raised = _raw(box, T, 0.7)
         assert isinstance(raised, Exception) and type(raised).__name__ == "ValueError"
         assert str(raised).startswith("no solution: xxx")
-        assert str(raised).endswith(" [... 1,998,013 more characters]")
+        assert str(raised).endswith(" [... 1,998,013 more characters] (big.py line 5)")
         assert len(str(raised)) < 2_100
         text = assess(kinematics.committed(), T, Q, _raw(box, T, 0.3)).problem
         assert text.startswith("returned str, not six numbers (TypeError: could not convert")
