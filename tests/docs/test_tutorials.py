@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TUTORIALS = sorted((ROOT / "docs" / "tutorials").glob("*.md"))
 
 _FENCE = re.compile(r"^```(\S*)\s*$")
-_VERDICTS = ("PASS:", "FAIL:", "cell ", "student,", "alice,", "bob,")
+_VERDICTS = ("PASS:", "FAIL:", "cell ", "student,", "alice,")
 _EXITS = re.compile(r"^<!--\s*exits:\s*(\d+)\s*-->\s*$")
 
 
