@@ -485,23 +485,6 @@ def cross_check() -> tuple[str, str]:
 
 
 def sleeping_server(seconds: float) -> str:
-    """A correct server (our own IK through the ROS contract) that sleeps ``seconds`` a pose:
-    slow whatever the machine's load, for the tests of the time budget."""
-    return f"""import rospy, time
-import numpy as np
-from kuka_arm.srv import *
-from trajectory_msgs.msg import JointTrajectoryPoint
-from kr210_sim.robot import kinematics
-from kr210_sim.robot.quaternions import pose_matrix
-
-def handle_calculate_IK(req):
-    points = []
-    for pose in req.poses:
-        time.sleep({seconds!r})
-        p, o = pose.position, pose.orientation
-        point = JointTrajectoryPoint()
-        T = pose_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
-        point.positions = list(kinematics.committed().nearest(T, np.zeros(6)))
-        points.append(point)
-    return CalculateIKResponse(points)
-"""
+    """A correct server (the NumPy one: the grader's own IK is not in its jail) that sleeps
+    ``seconds`` a pose: slow whatever the machine's load, for the tests of the time budget."""
+    return numpy_server(rpy=f"(__import__('time').sleep({seconds!r}), {RPY})[1]")

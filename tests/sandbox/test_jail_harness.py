@@ -257,3 +257,32 @@ def test_a_hard_link_to_a_file_the_student_could_not_read_is_not_shown(
         "1 of the student's files not shown in the jail (hard-linked to a file the student "
         "could not read)"
     ) in jail.findings()
+
+
+def test_a_jail_weighs_next_to_nothing_between_its_calls(tmp_path: Path, jail_ok: None) -> None:
+    """Finding 13: threads on every core between a student's calls cost a neighbour nothing;
+    while asked, it weighs as any process."""
+    import threading
+    import time
+
+    user = tmp_path / "slow.py"
+    user.write_text("import time\ndef solve(T, q):\n    time.sleep(1.0)\n    return q\n")
+    jail = Jail()
+    if not jail.limiter.cpu:
+        pytest.skip("no cpu control group can be made here")
+    box = IkSandbox(f"{user}:solve", Limits(call_timeout=10.0), confinement=jail, root=user)
+    with box:
+        box.start()
+        assert box._proc is not None
+        group = jail._started[box._proc.pid].group
+        assert group is not None and group.cpu is not None
+        v2 = (group.cpu / "cpu.weight").exists()
+        weight = group.cpu / ("cpu.weight" if v2 else "cpu.shares")
+        assert weight.read_text().split() == ["1" if v2 else "2"]  # ready, not asked
+        call = threading.Thread(target=box, args=(kinematics.forward(Q), Q))
+        call.start()
+        time.sleep(0.5)
+        during = weight.read_text().split()
+        call.join()
+        assert during == ["100" if v2 else "1024"]
+        assert weight.read_text().split() == ["1" if v2 else "2"]
