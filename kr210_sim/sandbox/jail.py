@@ -248,7 +248,8 @@ class Jail:
             "namespaces": "user, mount, pid, network, ipc, uts, cgroup",
             "network": "none (a loopback of its own)",
             "files": (
-                "read-only: the interpreter, its packages, kr210_sim and the user's own files; "
+                "read-only: the interpreter, its packages, kr210_sim's harness (not its solver, "
+                "planner or cells) and the user's own regular files, one by one; "
                 f"writable: a scratch tmpfs of {self.scratch_mb} MB and /dev/shm of {SHM_MB} MB, "
                 "gone at the end"
             ),

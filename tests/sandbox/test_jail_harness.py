@@ -286,3 +286,31 @@ def test_a_jail_weighs_next_to_nothing_between_its_calls(tmp_path: Path, jail_ok
         call.join()
         assert during == ["100" if v2 else "1024"]
         assert weight.read_text().split() == ["1" if v2 else "2"]
+
+
+def test_the_harness_imports_only_the_harness() -> None:
+    """Every kr210_sim import written in the harness's files (the exercise's shims included)
+    names a module the jail holds: an import added elsewhere would fail in every jail."""
+    import ast
+
+    package = paths.PACKAGE_DIR.resolve()
+    files = [
+        f for p in harness.files(package) for f in ([p] if p.is_file() else sorted(p.rglob("*.py")))
+    ]
+    outside = []
+    for f in files:
+        for node in ast.walk(ast.parse(f.read_text())):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for name in names:
+                module = name if not name.endswith(".*") else name[:-2]
+                if module.startswith("kr210_sim") and not harness.allowed(module):
+                    if module.rpartition(".")[0] and harness.allowed(module.rpartition(".")[0]):
+                        parent = module.rpartition(".")[0]
+                        if parent in {harness.module_name(m) for m in harness.MODULES}:
+                            continue  # a name imported from a harness module
+                    outside.append(f"{f.relative_to(package)}: {module}")
+    assert outside == []
