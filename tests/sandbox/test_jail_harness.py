@@ -314,3 +314,30 @@ def test_the_harness_imports_only_the_harness() -> None:
                             continue  # a name imported from a harness module
                     outside.append(f"{f.relative_to(package)}: {module}")
     assert outside == []
+
+
+def test_an_installed_package_is_hidden_under_the_harness(
+    tmp_path: Path, jail_ok: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Installed (not editable), kr210_sim lies in site-packages, which the jail binds whole:
+    an empty folder over the package's path hides it, and the harness is bound into that."""
+    from kr210_sim.sandbox import jail as jail_module
+
+    package = paths.PACKAGE_DIR.resolve()
+    roots = jail_module.python_roots
+    monkeypatch.setattr(jail_module, "python_roots", lambda: [*roots(), package.parent])
+    user = _write(
+        tmp_path / "peek.py",
+        f"""
+        attempt("kinematics", lambda: open({str(package / "robot" / "kinematics.py")!r}))
+        attempt("robot", lambda: sorted(os.listdir({str(package / "robot")!r})))
+        attempt("beside", lambda: sorted(os.listdir({str(package.parent)!r}))[:1] != [])
+        attempt("write", lambda: open({str(package / "x.py")!r}, "w"))
+        """,
+    )
+    box, _ = _run(f"{user}:solve", tmp_path, root=user)
+    got = _found(box)
+    assert got["beside"] == ["got", "True"]  # the folder around it is bound whole
+    assert got["kinematics"] == ["stopped", "FileNotFoundError"]
+    assert got["robot"] == ["got", "['quaternions.py']"]
+    assert got["write"][0] == "stopped"  # type: ignore[index]
