@@ -9,7 +9,10 @@ checks every answer. Where the child runs confined, the jail is built by
 :mod:`~kr210_sim.sandbox.jail` from bubblewrap (:mod:`~kr210_sim.sandbox.bwrap`), a seccomp
 filter (:mod:`~kr210_sim.sandbox.seccomp`), cgroup limits (:mod:`~kr210_sim.sandbox.cgroups`),
 the in-child confinement (:mod:`~kr210_sim.sandbox.confine`) and ``/proc`` reading
-(:mod:`~kr210_sim.sandbox.procfs`).
+(:mod:`~kr210_sim.sandbox.procfs`); of kr210_sim it shows only the harness
+(:mod:`~kr210_sim.sandbox.harness`) and of the user only its own files, one by one
+(:mod:`~kr210_sim.sandbox.jail_files`). :mod:`~kr210_sim.sandbox.captured` keeps the process's
+output bounded.
 
 May import: :mod:`kr210_sim.errors`, :mod:`kr210_sim.util`, :mod:`kr210_sim.robot` (the
 kinematics an answer is checked against) and :mod:`kr210_sim.exercise` (to serve a ROS-form

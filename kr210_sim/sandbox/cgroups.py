@@ -5,8 +5,8 @@ with the ``pids`` controller (a sibling of this process's own group, as a deskto
 delegates them), else the cgroup v1 ``pids`` hierarchy (a child of this process's group, as in a
 container run as root). Each jailed process tree gets a :class:`Group` of its own there:
 ``pids.max`` processes at most (a fork past it fails with ``EAGAIN``), one core's worth of
-CPU at a quarter of the grader's own processes' weight (:data:`CPU_WEIGHT`) where the ``cpu``
-controller is at hand too, and a bound on the memory of all its processes
+CPU, weighed as little as the kernel allows between its calls (:meth:`Group.weigh`), where the
+``cpu`` controller is at hand too, and a bound on the memory of all its processes
 and the files of its tmpfs together where the ``memory`` controller is (past it the kernel
 reclaims, then kills the group's largest process; no swap). The group is read from outside the
 jail at the end (forks refused, the most processes at once, CPU throttling, memory peak and
@@ -31,12 +31,15 @@ from pathlib import Path
 PREFIX = "kr210-jail-"
 #: CPU period of the one-core quota [µs].
 CPU_PERIOD_US = 100_000
-#: A jail's CPU weight beside the grader's own processes, as a fraction of theirs: under
-#: contention a jail's processes (a student's threads on every core) yield to the grading
-#: processes that simulate and check (an honest neighbour's run) four to one, while the jails
-#: share what is left evenly among themselves (cgroup v2 ``cpu.weight`` 25 of the default 100,
-#: v1 ``cpu.shares`` 256 of 1024).
-CPU_WEIGHT = 0.25
+#: A jail's CPU weight while the grader waits for no answer of it (:meth:`Group.weigh`), as
+#: (cgroup v2 ``cpu.weight``, v1 ``cpu.shares``): the least the kernel takes, against 100 and
+#: 1024 for a process outside any group of ours. Between its calls a student's processes get only
+#: CPU that nobody else wants, so threads spinning on every core, or a flood of output, take
+#: nothing from a neighbour; while it is asked, it weighs as any process (a lower weight then
+#: would turn a loaded machine into its timeouts).
+IDLE_WEIGHT = (1, 2)
+#: The weight while it is asked (the kernel's default).
+BUSY_WEIGHT = (100, 1024)
 
 
 @dataclass(frozen=True, slots=True)
@@ -221,13 +224,9 @@ class Group:
                 quota = int(cores * CPU_PERIOD_US)
                 if place.version == 2:
                     (cpu / "cpu.max").write_text(f"{quota} {CPU_PERIOD_US}\n")
-                    weight = ("cpu.weight", round(100 * CPU_WEIGHT))
                 else:
                     (cpu / "cpu.cfs_period_us").write_text(f"{CPU_PERIOD_US}\n")
                     (cpu / "cpu.cfs_quota_us").write_text(f"{quota}\n")
-                    weight = ("cpu.shares", round(1024 * CPU_WEIGHT))
-                with contextlib.suppress(OSError):  # (a kernel without weights: the quota holds)
-                    (cpu / weight[0]).write_text(f"{weight[1]}\n")
                 self.cpu = cpu
             self.memory: Path | None = None
             if place.memory is not None and memory_mb is not None:
@@ -250,6 +249,17 @@ class Group:
             with contextlib.suppress(OSError):  # memory and swap: as much, so no swap
                 (folder / "memory.memsw.limit_in_bytes").write_text(f"{limit}\n")
         return folder
+
+    def weigh(self, busy: bool) -> None:
+        """Weigh the group as any process while the grader waits for its answer (``busy``),
+        else as little as the kernel allows (:data:`IDLE_WEIGHT`): nothing where there is no
+        ``cpu`` group, or the kernel refuses."""
+        if self.cpu is None:
+            return
+        v2, v1 = BUSY_WEIGHT if busy else IDLE_WEIGHT
+        name, value = ("cpu.weight", v2) if self.place.version == 2 else ("cpu.shares", v1)
+        with contextlib.suppress(OSError):
+            (self.cpu / name).write_text(f"{value}\n")
 
     @property
     def procs(self) -> list[Path]:

@@ -64,6 +64,11 @@ class Confinement(Protocol):
         :meth:`popen` made for it. Safe to call twice and on a process that has ended."""
         ...
 
+    def asked(self, proc: subprocess.Popen[bytes], busy: bool) -> None:
+        """Whether an answer of ``proc``'s is awaited now (``busy``): a confinement may let it
+        have CPU only then, beside its neighbours."""
+        ...
+
     def describe(self) -> dict[str, Any]:
         """What protects the user's process, for reports (``{"confinement": name, ...}``)."""
         ...
@@ -136,6 +141,9 @@ class Unconfined:
     def end(self, proc: subprocess.Popen[bytes]) -> None:
         """Kill its process group and reap it."""
         kill_group(proc)
+
+    def asked(self, proc: subprocess.Popen[bytes], busy: bool) -> None:
+        """Nothing: it weighs as any process of the caller's."""
 
     def describe(self) -> dict[str, Any]:
         """``{"confinement": "none"}``."""

@@ -338,6 +338,7 @@ class IkSandbox:
         if message is not None:
             self._keep_blocked(message)
         if message is not None and message.get("ready"):
+            self._asked(False)  # between calls, its CPU is what nobody else wants
             return
         if message is not None and "error" in message:
             self.close_process()
@@ -407,8 +408,24 @@ class IkSandbox:
         if self._proc is None or self._proc.poll() is not None:
             self.start()
         self.calls += 1
-        req_w, ans_r = self._fds
         until = self._until(limit)  # the request's writing counts: a process may stop reading
+        self._asked(True)
+        try:
+            return self._exchange(message, until, limit)
+        finally:
+            self._asked(False)
+
+    def _asked(self, busy: bool) -> None:
+        """Tell the confinement whether an answer is awaited (its CPU weight follows)."""
+        asked = getattr(self.confinement, "asked", None)
+        if asked is not None and self._proc is not None:
+            asked(self._proc, busy)
+
+    def _exchange(
+        self, message: dict[str, Any], until: float | None, limit: float | None
+    ) -> dict[str, Any] | Oversized:
+        """Send the request and read its answer (see :meth:`_request`)."""
+        req_w, ans_r = self._fds
         try:
             send(req_w, {"n": self.calls, **message}, until)
         except TimeoutError:

@@ -248,7 +248,8 @@ class Jail:
             "namespaces": "user, mount, pid, network, ipc, uts, cgroup",
             "network": "none (a loopback of its own)",
             "files": (
-                "read-only: the interpreter, its packages, kr210_sim and the user's own files; "
+                "read-only: the interpreter, its packages, kr210_sim's harness (not its solver, "
+                "planner or cells) and the user's own regular files, one by one; "
                 f"writable: a scratch tmpfs of {self.scratch_mb} MB and /dev/shm of {SHM_MB} MB, "
                 "gone at the end"
             ),
@@ -444,10 +445,20 @@ class Jail:
         self._started[proc.pid] = _Started(group, init, pidfd)
         return proc
 
+    def asked(self, proc: subprocess.Popen[bytes], busy: bool) -> None:
+        """The grader waits for an answer of ``proc``'s (``busy``) or for none: its control
+        group weighs as any process, or as little as the kernel allows
+        (:meth:`~kr210_sim.sandbox.cgroups.Group.weigh`)."""
+        started = self._started.get(proc.pid)
+        if started is not None and started.group is not None:
+            started.group.weigh(busy)
+
     def end(self, proc: subprocess.Popen[bytes]) -> None:
         """Count what is still running, kill the jail whole and wait for it, read and remove
         its control groups. Safe to call twice and on a jail that has ended."""
         started = self._started.pop(proc.pid, None)
+        if started is not None and started.group is not None:
+            started.group.weigh(True)  # a killed process needs CPU to exit: not the least
         if started is not None and started.init is not None:
             net = procfs.net_counters(started.init)
             if net["tcp"] or net["udp"]:

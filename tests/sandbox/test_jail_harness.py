@@ -257,3 +257,87 @@ def test_a_hard_link_to_a_file_the_student_could_not_read_is_not_shown(
         "1 of the student's files not shown in the jail (hard-linked to a file the student "
         "could not read)"
     ) in jail.findings()
+
+
+def test_a_jail_weighs_next_to_nothing_between_its_calls(tmp_path: Path, jail_ok: None) -> None:
+    """Finding 13: threads on every core between a student's calls cost a neighbour nothing;
+    while asked, it weighs as any process."""
+    import threading
+    import time
+
+    user = tmp_path / "slow.py"
+    user.write_text("import time\ndef solve(T, q):\n    time.sleep(1.0)\n    return q\n")
+    jail = Jail()
+    if not jail.limiter.cpu:
+        pytest.skip("no cpu control group can be made here")
+    box = IkSandbox(f"{user}:solve", Limits(call_timeout=10.0), confinement=jail, root=user)
+    with box:
+        box.start()
+        assert box._proc is not None
+        group = jail._started[box._proc.pid].group
+        assert group is not None and group.cpu is not None
+        v2 = (group.cpu / "cpu.weight").exists()
+        weight = group.cpu / ("cpu.weight" if v2 else "cpu.shares")
+        assert weight.read_text().split() == ["1" if v2 else "2"]  # ready, not asked
+        call = threading.Thread(target=box, args=(kinematics.forward(Q), Q))
+        call.start()
+        time.sleep(0.5)
+        during = weight.read_text().split()
+        call.join()
+        assert during == ["100" if v2 else "1024"]
+        assert weight.read_text().split() == ["1" if v2 else "2"]
+
+
+def test_the_harness_imports_only_the_harness() -> None:
+    """Every kr210_sim import written in the harness's files (the exercise's shims included)
+    names a module the jail holds: an import added elsewhere would fail in every jail."""
+    import ast
+
+    package = paths.PACKAGE_DIR.resolve()
+    files = [
+        f for p in harness.files(package) for f in ([p] if p.is_file() else sorted(p.rglob("*.py")))
+    ]
+    outside = []
+    for f in files:
+        for node in ast.walk(ast.parse(f.read_text())):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for name in names:
+                module = name if not name.endswith(".*") else name[:-2]
+                if module.startswith("kr210_sim") and not harness.allowed(module):
+                    if module.rpartition(".")[0] and harness.allowed(module.rpartition(".")[0]):
+                        parent = module.rpartition(".")[0]
+                        if parent in {harness.module_name(m) for m in harness.MODULES}:
+                            continue  # a name imported from a harness module
+                    outside.append(f"{f.relative_to(package)}: {module}")
+    assert outside == []
+
+
+def test_an_installed_package_is_hidden_under_the_harness(
+    tmp_path: Path, jail_ok: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Installed (not editable), kr210_sim lies in site-packages, which the jail binds whole:
+    an empty folder over the package's path hides it, and the harness is bound into that."""
+    from kr210_sim.sandbox import jail as jail_module
+
+    package = paths.PACKAGE_DIR.resolve()
+    roots = jail_module.python_roots
+    monkeypatch.setattr(jail_module, "python_roots", lambda: [*roots(), package.parent])
+    user = _write(
+        tmp_path / "peek.py",
+        f"""
+        attempt("kinematics", lambda: open({str(package / "robot" / "kinematics.py")!r}))
+        attempt("robot", lambda: sorted(os.listdir({str(package / "robot")!r})))
+        attempt("beside", lambda: sorted(os.listdir({str(package.parent)!r}))[:1] != [])
+        attempt("write", lambda: open({str(package / "x.py")!r}, "w"))
+        """,
+    )
+    box, _ = _run(f"{user}:solve", tmp_path, root=user)
+    got = _found(box)
+    assert got["beside"] == ["got", "True"]  # the folder around it is bound whole
+    assert got["kinematics"] == ["stopped", "FileNotFoundError"]
+    assert got["robot"] == ["got", "['quaternions.py']"]
+    assert got["write"][0] == "stopped"  # type: ignore[index]
