@@ -320,6 +320,7 @@ def _add_evaluate(sub: _Commands) -> None:
     )
     _add_seed_option(cmd, "the episode seeds")
     cmd.add_argument("--randomize", action="store_true", help="randomise each episode's target")
+    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
     _add_scene_option(cmd)
     _add_cell_option(cmd)
     _add_ik_options(

@@ -295,6 +295,7 @@ def evaluate(args: argparse.Namespace) -> int:
         ik=args.ik,
         cell=args.cell,
         ik_timeout=args.ik_timeout,
+        perceive=args.perceive,
     )
     outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
     report = outcome.report
@@ -320,6 +321,10 @@ def evaluate(args: argparse.Namespace) -> int:
         if s["successes"]
         else "none (no episode succeeded)"
     )
+    if "perception" in s:
+        p, e = s["perception"], s["perception"]["position_error_mm"]
+        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err if e else ''}\n")
     out.write(
         f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
@@ -335,6 +340,7 @@ def evaluate(args: argparse.Namespace) -> int:
             config.cell or config.scene,
             ik=args.ik,
             ik_timeout=args.ik_timeout,
+            perceive=config.perceive,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:
