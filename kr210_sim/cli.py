@@ -320,6 +320,7 @@ def _add_evaluate(sub: _Commands) -> None:
     )
     _add_seed_option(cmd, "the episode seeds")
     cmd.add_argument("--randomize", action="store_true", help="randomise each episode's target")
+    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
     _add_scene_option(cmd)
     _add_cell_option(cmd)
     _add_ik_options(
@@ -445,6 +446,16 @@ def _add_snapshot(sub: _Commands) -> None:
     cmd.set_defaults(func=commands.snapshot)
 
 
+def _add_perceive(sub: _Commands) -> None:
+    cmd = sub.add_parser("perceive", help="look at a cycle's target and draw what was seen (PNG)")
+    cmd.add_argument("--out", type=Path, default=Path("look.png"), help="PNG path (look.png)")
+    _add_cell_option(cmd, "the committed scene")
+    _add_seed_option(cmd, "the cycle's slot, target and clutter (as run --cycles 1)")
+    cmd.add_argument("--slot", type=argtypes.slot, default=0, help="slot 1-9, 0 = drawn (0)")
+    cmd.add_argument("--randomize", action="store_true", help="randomise as run --randomize")
+    cmd.set_defaults(func=commands.perceive)
+
+
 #: The commands in the order ``--help`` lists them.
 _COMMANDS: tuple[Callable[[_Commands], None], ...] = (
     _add_run,
@@ -458,6 +469,7 @@ _COMMANDS: tuple[Callable[[_Commands], None], ...] = (
     _add_build_scene,
     _add_build_meshes,
     _add_snapshot,
+    _add_perceive,
 )
 
 

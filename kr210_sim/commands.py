@@ -323,6 +323,7 @@ def evaluate(args: argparse.Namespace) -> int:
         ik=args.ik,
         cell=args.cell,
         ik_timeout=args.ik_timeout,
+        perceive=args.perceive,
     )
     outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
     report = outcome.report
@@ -348,6 +349,10 @@ def evaluate(args: argparse.Namespace) -> int:
         if s["successes"]
         else "none (no episode succeeded)"
     )
+    if "perception" in s:
+        p, e = s["perception"], s["perception"]["position_error_mm"]
+        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err if e else ''}\n")
     out.write(
         f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
@@ -363,6 +368,7 @@ def evaluate(args: argparse.Namespace) -> int:
             config.cell or config.scene,
             ik=args.ik,
             ik_timeout=args.ik_timeout,
+            perceive=config.perceive,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:
@@ -483,4 +489,31 @@ def snapshot(args: argparse.Namespace) -> int:
 
     path = snapshot_job(args.out, args.camera, args.width, args.height, args.cell)
     print(f"wrote {path}")
+    return 0
+
+
+def perceive(args: argparse.Namespace) -> int:
+    """``perceive``: look at the first cycle's target of ``run --perceive --cycles 1`` and draw
+    each look (colour, depth, the clusters labelled with their poses) into one PNG."""
+    from kr210_sim.media.look_panels import write_look_panels
+    from kr210_sim.sensors.glance import glance
+    from kr210_sim.util.outputs import check_distinct, check_writable, is_stream
+    from kr210_sim.util.paths import SCENE_PATH
+
+    check_writable(args.out)
+    check_distinct({"--out": args.out}, {"--cell": args.cell, "the scene": SCENE_PATH})
+    if args.out.suffix.lower() != ".png" and not is_stream(args.out):
+        raise ConfigError(f"--out {args.out}: perceive writes a PNG; give a path ending in .png")
+    g = glance(args.cell, args.seed, args.slot, args.randomize)
+    r = g.record
+    labels = write_look_panels(args.out, g.observations, g.percept, f"slot {g.slot}: {g.label}?")
+    if r.seen:
+        axis = f", axis {r.axis_error_deg:.1f} deg" if r.axis_error_deg is not None else ""
+        off = f"{r.position_error_mm:.1f} mm off{axis}" if r.position_error_mm is not None else ""
+        on = "the target" if r.right_object else "ANOTHER object"
+        print(f"  {r.label} seen in slot {g.slot} ({r.confidence:.2f} sure) on {on}: {off}")
+    else:
+        print(f"  {r.label} not seen in slot {g.slot}: {r.reason}")
+    print(f"  {len(g.observations)} look(s), clusters {list(r.clusters)}, {len(labels)} labelled")
+    print(f"wrote {args.out}")
     return 0

@@ -43,6 +43,7 @@ from kr210_sim.media.render_pool import RenderPool, capped_workers, default_work
 from kr210_sim.media.video import VideoSettings
 from kr210_sim.sandbox.user_ik import UserIk
 from kr210_sim.score.result import CycleResult
+from kr210_sim.sim.perceived import with_seen
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.sim.session import run_session, runner_report, unstarted_report
 from kr210_sim.util.interrupts import cuttable, end_start_up, exit_code, signal_name, winding_up
@@ -247,10 +248,8 @@ def run_job(
             except RenderError as exc:  # no GL backend or no encoder: run, report, then fail
                 video_error = str(exc)
             else:
-                sink = _guarded(pool)
-                recorders.append(
-                    StateRecorder(runner.model, geoms, runner.status, video.fps, False, sink)
-                )
+                sink, seen = _guarded(pool), with_seen(runner.status, runner.perceiver)
+                recorders.append(StateRecorder(runner.model, geoms, seen, video.fps, False, sink))
     except KeyboardInterrupt as exc:
         with winding_up(exc):
             if pool is not None:

@@ -59,6 +59,7 @@ from gymnasium import spaces
 from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.load import model_at, model_for
 from kr210_sim.cell.spec import MotionConfig
+from kr210_sim.envs.sensor_obs import OBS_MODES, SensorObservations
 from kr210_sim.errors import ActionError, ConfigError, UnreachablePoseError
 from kr210_sim.plan.collide import CollisionChecker
 from kr210_sim.plan.poses import gripper_pose
@@ -113,7 +114,7 @@ def _info_values(info: Any, key: str) -> npt.NDArray[Any]:
         ) from None
 
 
-class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
+class PickPlaceEnv(gym.Env[dict[str, Any], npt.NDArray[np.float32]]):
     """The KR210 cell as a goal-conditioned environment (see the module docstring).
 
     Args:
@@ -130,6 +131,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             committed scene.
         cell: A cell file (TOML) to compile instead of a scene, as ``run(cell=)`` and
             ``--cell`` take it; not with ``scene``.
+        obs_mode: ``"state"``, or ManiSkill3's ``"rgbd"`` or ``"pointcloud"``: the cell's
+            sensors seen too, their parameters in ``info["sensor_param"]``
+            (:mod:`kr210_sim.envs.sensor_obs`).
 
     Raises:
         ConfigError: A bad argument (one sentence naming the choices).
@@ -150,7 +154,10 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         height: int = 352,
         scene: str | Path | None = None,
         cell: str | Path | None = None,
+        obs_mode: str = "state",
     ) -> None:
+        if obs_mode not in OBS_MODES:
+            raise ConfigError(f"obs_mode must be one of {', '.join(OBS_MODES)}, got {obs_mode!r}")
         if control not in CONTROLS:
             raise ConfigError(f"control must be 'joint' or 'cartesian', got {control!r}")
         if reward not in REWARDS:
@@ -171,6 +178,8 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             check_camera(self.model, camera)
             check_frame_size(width, height)
         self.camera, self.width, self.height = camera, width, height
+        self.obs_mode = obs_mode
+        self._sensors = None if obs_mode == "state" else SensorObservations(self.model, obs_mode)
         self._renderer: mujoco.Renderer | None = None
         self._ended = False
         self.robot = load_robot()
@@ -208,11 +217,12 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         n = CONTROLS[control]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
         inf = np.inf
-        self.observation_space = spaces.Dict(  # type: ignore[assignment]
+        self.observation_space = spaces.Dict(
             {
                 "observation": spaces.Box(-inf, inf, shape=(20,), dtype=np.float64),
                 "achieved_goal": spaces.Box(-inf, inf, shape=(3,), dtype=np.float64),
                 "desired_goal": spaces.Box(-inf, inf, shape=(3,), dtype=np.float64),
+                **(self._sensors.spaces() if self._sensors is not None else {}),
             }
         )
         #: Counts resets (a new episode); the scripted expert re-plans when it changes.
@@ -226,11 +236,12 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self._rest = RestCounter(self.model.opt.timestep)
         self._contacts = 0
         self._mass = self.layout.target.mass
+        self._sensor_param: dict[str, Any] = {}
 
     # -- Gymnasium API -----------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, FloatArray], dict[str, Any]]:
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode: the arm at the ready pose, a fresh cylinder in a slot.
 
         With ``seed=s`` the cylinder is the one ``run --cycles 1 --seed s`` spawns (same slot
@@ -278,7 +289,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
 
     def step(
         self, action: npt.ArrayLike
-    ) -> tuple[dict[str, FloatArray], float, bool, bool, dict[str, Any]]:
+    ) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """Apply one action for :data:`POLICY_DT` (see the module docstring).
 
         Raises:
@@ -364,7 +375,9 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         return render_frame(self._renderer, self.cell.data, self.camera)
 
     def close(self) -> None:
-        """Free the renderer."""
+        """Free the renderers."""
+        if self._sensors is not None:
+            self._sensors.close()
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
@@ -437,7 +450,13 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
         self.p_cmd, self.yaw_cmd = p, float(yaw)
         return q
 
-    def _observation(self) -> dict[str, FloatArray]:
+    def _observation(self) -> dict[str, Any]:
+        """The observation (with a camera mode, the sensors' looks too; their parameters wait
+        in :attr:`_sensor_param` for :meth:`_info`)."""
+        seen: dict[str, Any] = {}
+        if self._sensors is not None:
+            seen = self._sensors.observe(self.cell.data)
+            self._sensor_param = seen.pop("sensor_param")
         c = self.cell
         d = c.data
         h = c.handles
@@ -455,6 +474,7 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             "observation": obs.astype(np.float64),
             "achieved_goal": c.target_pose()[0],
             "desired_goal": self.goal.copy(),
+            **seen,
         }
 
     def _info(self) -> dict[str, Any]:
@@ -476,4 +496,5 @@ class PickPlaceEnv(gym.Env[dict[str, FloatArray], npt.NDArray[np.float32]]):
             "robot_cell_contacts": self._contacts,  # ticks with one, this episode
             "slot": self.target.slot if self.target is not None else 0,
             "time": c.time,
+            **({"sensor_param": self._sensor_param} if self._sensors is not None else {}),
         }

@@ -5,7 +5,10 @@ bin) running one cycle of ``RunConfig(cycles=1, seed=episode_seed, randomize=...
 (:func:`kr210_sim.sim.session.episode_runner`). Episode
 ``i``'s seed is drawn from ``numpy.random.SeedSequence([seed, i])``, so results do not depend on
 how episodes are spread over processes or machines, and any episode is replayed exactly by
-``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize]``.
+``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize] [--perceive]``.
+With ``perceive`` the episode picks from what the cell's sensors saw
+(:class:`kr210_sim.sensors.perceiver.Perceiver`; the recogniser is loaded once per process, the
+sensors' renderers are freed after each episode).
 
 Every process that runs episodes (the driver, a local worker, a Ray worker) loads the scene once
 and keeps it: :func:`run_chunk` is the unit of work that the backends ship.
@@ -15,17 +18,25 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from kr210_sim.score.result import CycleResult, cycle_record
 from kr210_sim.sim.session import episode_runner
 
+if TYPE_CHECKING:  # the sensors render: imported only for perceived episodes
+    from kr210_sim.perception.model import RecognitionModel
+    from kr210_sim.plan.planner import Planner
+    from kr210_sim.sensors.perceiver import Perceiver
+    from kr210_sim.sim.perceived import PerceiverFactory
+
 import mujoco  # isort: skip
 
 #: The scene loaded in this process: (path as given, model). One at a time.
 _PRISTINE: tuple[str | None, mujoco.MjModel] | None = None
+#: The recogniser of this process's perceived episodes (loaded and fitted once).
+_RECOGNISER: RecognitionModel | None = None
 
 
 def episode_seed(seed: int, index: int) -> int:
@@ -52,23 +63,53 @@ def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
     return _PRISTINE[1]
 
 
+def perceiver_factory() -> PerceiverFactory:
+    """What makes the perceivers of this process's ``--perceive`` episodes."""
+    return _perceiver
+
+
+def _perceiver(model: mujoco.MjModel, planner: Planner) -> Perceiver:
+    """A perceiver of ``model`` with this process's recogniser (loaded on first use)."""
+    global _RECOGNISER
+    from kr210_sim.sensors.perceiver import Perceiver
+
+    if _RECOGNISER is None:
+        from kr210_sim.perception.model import load_model
+
+        _RECOGNISER = load_model()
+    return Perceiver(model, planner, _RECOGNISER)
+
+
 def run_episode(
     seed: int,
     randomize: bool,
     scene: Path | str | None = None,
     ik: str | None = None,
     ik_timeout: float | None = None,
+    perceive: bool = False,
 ) -> CycleResult:
     """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
     SPEC ``ik`` (None: ours; loaded once per process; with ``ik_timeout`` [s] in a process of
-    its own, :func:`~kr210_sim.sandbox.ik_sandbox.load_user_ik`)."""
+    its own, :func:`~kr210_sim.sandbox.ik_sandbox.load_user_ik`), from what the sensors saw
+    when ``perceive``."""
     user_ik = None
     if ik is not None:
         from kr210_sim.sandbox.ik_sandbox import load_user_ik
 
         user_ik = load_user_ik(ik, ik_timeout)
-    runner = episode_runner(seed, randomize=randomize, model=load_pristine(scene), ik=user_ik)
-    return runner.run_cycle(1, runner.slot_for_cycle())
+    runner = episode_runner(
+        seed,
+        randomize=randomize,
+        model=load_pristine(scene),
+        ik=user_ik,
+        perceiver=perceiver_factory() if perceive else None,
+    )
+    try:
+        return runner.run_cycle(1, runner.slot_for_cycle())
+    finally:
+        close = getattr(runner.perceiver, "close", None)
+        if close is not None:
+            close()  # its renderers' GL contexts: one episode's
 
 
 def episode_record(index: int, seed: int, r: CycleResult) -> dict[str, Any]:
@@ -85,9 +126,11 @@ def record_of(
     scene: Path | str | None,
     ik: str | None = None,
     ik_timeout: float | None = None,
+    perceive: bool = False,
 ) -> dict[str, Any]:
     """Run episode ``index`` (seeded ``seed``) and return its record."""
-    return episode_record(index, seed, run_episode(seed, randomize, scene, ik, ik_timeout))
+    r = run_episode(seed, randomize, scene, ik, ik_timeout, perceive)
+    return episode_record(index, seed, r)
 
 
 def run_chunk(
@@ -96,6 +139,7 @@ def run_chunk(
     scene: str | None,
     ik: str | None = None,
     ik_timeout: float | None = None,
+    perceive: bool = False,
 ) -> dict[str, Any]:
     """Run a chunk of episodes: the unit of work a backend ships to a worker.
 
@@ -105,6 +149,7 @@ def run_chunk(
         scene: MJCF scene path (must exist where this runs), or None for the committed scene.
         ik: SPEC of the user's IK (its file or module must exist where this runs), or None.
         ik_timeout: Time limit per call of that IK [s] (it then runs in a process of its own).
+        perceive: Pick from what the cell's sensors see (``--perceive``).
 
     Returns:
         ``{"records": [record, ...], "versions": {...}}``: the records in ``jobs`` order and the
@@ -114,6 +159,6 @@ def run_chunk(
     from kr210_sim.util.versions import versions
 
     return {
-        "records": [record_of(i, s, randomize, scene, ik, ik_timeout) for i, s in jobs],
+        "records": [record_of(i, s, randomize, scene, ik, ik_timeout, perceive) for i, s in jobs],
         "versions": versions(),
     }

@@ -88,6 +88,8 @@ class EvalConfig:
         ik_timeout: Time limit per call of the user's IK (``--ik-timeout``) [s]: it then runs
             in a process of its own per worker, and a call with no answer in time makes that
             episode ``ik_failed``. None: no limit, imported into each worker.
+        perceive: Pick every episode from what the cell's sensors see (``--perceive``): the
+            records get ``perception`` and the summary its block.
     """
 
     episodes: int = 100
@@ -100,6 +102,7 @@ class EvalConfig:
     ik: str | None = None
     cell: Path | None = None
     ik_timeout: float | None = None
+    perceive: bool = False
 
     def __post_init__(self) -> None:
         if self.scene is not None and self.cell is not None:
@@ -274,6 +277,7 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
         "model_sha256": model_identity(model_for(config.scene, config.cell)),
         **ik,
         **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
+        **({"perceive": True} if config.perceive else {}),
         "versions": versions(),
     }
 
@@ -372,6 +376,7 @@ def evaluate(
             todo,
             config.ik,
             config.ik_timeout,
+            config.perceive,
         )
     else:
         backend = LocalBackend(
@@ -380,6 +385,7 @@ def evaluate(
             _source(config),
             config.ik,
             config.ik_timeout,
+            config.perceive,
         )
 
     caught: int | None = None
@@ -467,9 +473,11 @@ def _report(
             "cell": str(config.cell) if config.cell else None,
             **({"ik": config.ik} if config.ik is not None else {}),
             **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
+            **({"perceive": True} if config.perceive else {}),
             "randomization": _randomization(config),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
             + (" --randomize" if config.randomize else "")
+            + (" --perceive" if config.perceive else "")
             + (f" --ik {config.ik}" if config.ik is not None else "")
             + (f" --ik-timeout {config.ik_timeout:g}" if config.ik_timeout is not None else "")
             + (f" --scene {config.scene}" if config.scene else "")

@@ -51,6 +51,7 @@ def record_episode(
     rate: float = DEFAULT_RATE,
     model: mujoco.MjModel | None = None,
     ik: UserIk | None = None,
+    perceive: bool = False,
 ) -> EpisodeRecording:
     """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
 
@@ -68,6 +69,7 @@ def record_episode(
         model: A pristine copy of the scene's model, to skip loading it again (it is copied).
         ik: The user's IK the evaluation planned with (:func:`kr210_sim.sandbox.user_ik.load_ik`),
             or None for ours.
+        perceive: Whether the evaluation picked from what the sensors saw (``--perceive``).
 
     Returns:
         Where the recording went and the episode's reason (``success`` if it did not fail).
@@ -83,7 +85,10 @@ def record_episode(
     folder = check_folder(out_dir)
     pristine = model if model is not None else model_at(scene)
     identity = model_identity(pristine)
-    runner = episode_runner(seed, randomize=randomize, model=pristine, ik=ik)
+    from kr210_sim.eval.episode import perceiver_factory
+
+    factory = perceiver_factory() if perceive else None
+    runner = episode_runner(seed, randomize=randomize, model=pristine, ik=ik, perceiver=factory)
     config = runner.config
     recorder = StateRecorder(
         runner.model, runner.cell.handles.target_geoms, runner.status, rate=rate
@@ -109,6 +114,7 @@ def record_failures(
     rate: float = DEFAULT_RATE,
     ik: str | None = None,
     ik_timeout: float | None = None,
+    perceive: bool = False,
 ) -> list[EpisodeRecording]:
     """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
 
@@ -120,6 +126,7 @@ def record_failures(
         rate: Frames per simulated second [Hz].
         ik: SPEC of the user's IK the evaluation planned with (``--ik``), or None for ours.
         ik_timeout: Its time limit per call (``--ik-timeout``) [s], or None.
+        perceive: Whether the evaluation picked from what the sensors saw (``--perceive``).
 
     Returns:
         One entry per failed episode, in the records' order.
@@ -138,6 +145,6 @@ def record_failures(
 
         user_ik = load_user_ik(ik, ik_timeout)
     return [
-        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, pristine, user_ik)
+        record_episode(int(r["seed"]), randomize, out_dir, scene, rate, pristine, user_ik, perceive)
         for r in failed
     ]

@@ -46,6 +46,7 @@ def _worker_main(
     scene: str | None,
     ik: str | None,
     ik_timeout: float | None = None,
+    perceive: bool = False,
 ) -> None:
     """A worker process: run the episodes the driver sends, reply with their records."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -59,7 +60,7 @@ def _worker_main(
                 reply: tuple[Any, ...] = (
                     "ok",
                     index,
-                    episode.record_of(index, seed, randomize, scene, ik, ik_timeout),
+                    episode.record_of(index, seed, randomize, scene, ik, ik_timeout, perceive),
                 )
             except Exception as exc:
                 reply = ("error", index, f"{type(exc).__name__}: {exc}")
@@ -80,6 +81,7 @@ class LocalBackend:
         scene: MJCF scene path, or None for the committed scene.
         ik: SPEC of the user's IK, or None for ours.
         ik_timeout: Time limit per call of that IK [s], or None.
+        perceive: Pick from what the sensors see (``--perceive``).
     """
 
     name = "local"
@@ -91,8 +93,10 @@ class LocalBackend:
         scene: Path | None,
         ik: str | None = None,
         ik_timeout: float | None = None,
+        perceive: bool = False,
     ) -> None:
         self.workers = workers
+        self.perceive = perceive
         self.randomize = randomize
         self.scene = str(scene) if scene is not None else None
         self.ik = ik
@@ -125,6 +129,7 @@ class LocalBackend:
                         self.scene,
                         self.ik,
                         self.ik_timeout,
+                        self.perceive,
                     ),
                     name="kr210_sim-evaluate",
                 )
@@ -175,7 +180,13 @@ class LocalBackend:
             for index, seed in jobs:
                 yield [
                     episode.record_of(
-                        index, seed, self.randomize, self.scene, self.ik, self.ik_timeout
+                        index,
+                        seed,
+                        self.randomize,
+                        self.scene,
+                        self.ik,
+                        self.ik_timeout,
+                        self.perceive,
                     )
                 ]
             return

@@ -60,6 +60,7 @@ class RayBackend:
         scene: MJCF scene path (the same on every node), or None for the committed scene.
         ik: SPEC of the user's IK (its file at the same path on every node), or None.
         ik_timeout: Time limit per call of that IK [s], or None.
+        perceive: Pick from what the sensors see (``--perceive``).
         address: Cluster address (``auto`` or ``host:port``), or None to start Ray here.
         episodes: Episodes to run (caps the workers and sizes the chunks).
     """
@@ -75,8 +76,10 @@ class RayBackend:
         episodes: int,
         ik: str | None = None,
         ik_timeout: float | None = None,
+        perceive: bool = False,
     ) -> None:
         self.workers = workers or 0
+        self.perceive = perceive
         self.randomize = randomize
         self.scene = str(scene.resolve()) if scene is not None else None
         self.ik = ik
@@ -186,7 +189,9 @@ class RayBackend:
                 chunk = list(islice(todo, self.chunk))
                 if not chunk:
                     return
-                ref = task.remote(chunk, self.randomize, self.scene, self.ik, self.ik_timeout)
+                ref = task.remote(
+                    chunk, self.randomize, self.scene, self.ik, self.ik_timeout, self.perceive
+                )
                 self._pending[ref] = [i for i, _ in chunk]
 
         submit()

@@ -97,6 +97,9 @@ class FrameStatus:
         done: Cycles finished.
         successes: Cycles that succeeded.
         event: Text of the event between cycles being shown, or "".
+        seen: With ``--perceive``, what the cycle's look recognised ("" before a look or
+            without perception; not kept in recordings).
+        seen_at: Where it was estimated [m] (world), or None.
     """
 
     time: float
@@ -107,6 +110,8 @@ class FrameStatus:
     done: int
     successes: int
     event: str
+    seen: str = ""
+    seen_at: tuple[float, float, float] | None = None
 
     def as_status(self) -> dict[str, object]:
         """The runner-style status dict (``Runner.status``)."""
@@ -118,6 +123,7 @@ class FrameStatus:
             "done": self.done,
             "successes": self.successes,
             "event": self.event,
+            "seen": self.seen,
         }
 
     def lines(self) -> list[str]:
@@ -140,7 +146,17 @@ def _status_of(status: Mapping[str, object], time: float) -> FrameStatus:
         done=num("done"),
         successes=num("successes"),
         event=str(status.get("event", "") or ""),
+        seen=str(status.get("seen", "") or ""),
+        seen_at=_point(status.get("seen_at")),
     )
+
+
+def _point(value: object) -> tuple[float, float, float] | None:
+    """A status's ``seen_at`` as a point [m], or None."""
+    if value is None:
+        return None
+    x, y, z = (float(c) for c in value)  # type: ignore[attr-defined]
+    return (x, y, z)
 
 
 @dataclass(frozen=True)

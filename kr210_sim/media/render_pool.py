@@ -54,6 +54,7 @@ from kr210_sim.media.render import (
     make_renderer,
     shadow_casters,
 )
+from kr210_sim.media.seen import SeenMarker
 from kr210_sim.media.video import QUALITY, VideoSettings, _Writer
 from kr210_sim.util.interrupts import deferred
 
@@ -281,7 +282,9 @@ class RenderPool:
         self.written = 0
         #: The failure that stopped this video during a run (set by the job), or None.
         self.error: Exception | None = None
-        self._lines: collections.deque[FrameStatus] = collections.deque()
+        #: Per frame fed, not yet written: its status, positions and whether in the tail.
+        self._lines: collections.deque[tuple[FrameStatus, FloatArray, bool]] = collections.deque()
+        self._seen = SeenMarker(model, settings)  # marks what perception saw (--perceive)
         #: The positions last fed that were not held (see :data:`HOLD`).
         self._held: FloatArray | None = None
         self._pending: list[tuple[FloatArray, FloatArray, bool]] = []
@@ -430,7 +433,9 @@ class RenderPool:
                     self._outstanding[0] = (w, n - 1)
 
     def _write(self, frame: npt.NDArray[np.uint8]) -> None:
-        status = self._lines.popleft()
+        status, qpos, tail = self._lines.popleft()
+        if status.seen_at is not None and not tail:
+            self._seen.draw(frame, qpos, status)
         self.writer.put(frame, status.lines())
         self.written += 1
         if self.progress is not None:
@@ -447,7 +452,7 @@ class RenderPool:
             self._held = qpos = np.array(qpos, dtype=np.float64)
         with deferred():  # counted whole, or not at all
             self.fed += 1
-            self._lines.append(status)
+            self._lines.append((status, qpos, tail))
             if self._local is not None:
                 self._write(self._local.render(qpos, shapes, tail))
                 return

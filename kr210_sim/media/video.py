@@ -158,7 +158,8 @@ PHASE_LABELS = {
 
 def overlay_lines(status: dict[str, object], sim_time: float) -> list[str]:
     """The overlay text for the runner's ``status`` at simulated time ``sim_time`` [s]: cycle,
-    slot, phase, score, time, and the event between cycles being shown (bin emptied, ...)."""
+    slot, phase, score, time, the event between cycles being shown (bin emptied, ...) and, with
+    ``--perceive``, what the cycle's look recognised."""
     phase = str(status.get("phase", ""))
     done = int(status.get("done", 0))  # type: ignore[call-overload]
     return [
@@ -166,7 +167,7 @@ def overlay_lines(status: dict[str, object], sim_time: float) -> list[str]:
         f"phase: {PHASE_LABELS.get(phase, phase)}",
         f"score: {status.get('successes', 0)}/{done}",
         f"t = {sim_time:6.2f} s",
-    ] + ([str(status["event"])] if status.get("event") else [])
+    ] + [str(status[k]) for k in ("event", "seen") if status.get(k)]
 
 
 class _Overlay:

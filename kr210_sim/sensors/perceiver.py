@@ -84,6 +84,10 @@ class Perceiver:
         self.estimate: FloatArray | None = None
         #: The record of the last cycle's perception.
         self.record: PerceptionRecord | None = None
+        #: The last cycle's observations, in order (what ``perceive`` draws).
+        self.observations: tuple[Observation, ...] = ()
+        #: What the pipeline made of them.
+        self.percept: Percept | None = None
 
     def look(
         self,
@@ -116,6 +120,7 @@ class Perceiver:
             NotSeenError: When no look found it (:attr:`record` says what was seen).
         """
         self.estimate, self.record = None, None
+        self.observations, self.percept = (), None
         slot, kind = sample.slot, self.recogniser.kind(label)
         radius = kind.size[0]  # the kind's: the wrist look's standoff
         box = layout_bay(self.layout, slot)
@@ -138,6 +143,7 @@ class Perceiver:
                 p = perceive(looks, label, box, self.recogniser, seed)
                 cpu += p.cpu_time
         self.record = self._score(cell, k, label, p, len(looks), cpu, wall)
+        self.observations, self.percept = tuple(looks), p
         if p.target is None or p.target.pose is None:
             raise NotSeenError(f"{label} not seen in slot {slot}: {p.reason}")
         pose = p.target.pose

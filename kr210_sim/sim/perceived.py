@@ -12,7 +12,7 @@ only scores.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -213,3 +213,53 @@ def report(perceiver: Perceiving | None) -> dict[str, Any] | None:
     """The cycle record's ``perception`` block (None without a perceiver or a look)."""
     r = None if perceiver is None else perceiver.record
     return None if r is None else r.to_dict()
+
+
+def shown(perceiver: Perceiving | None) -> dict[str, object]:
+    """What the video's overlay shows of the cycle's look: ``seen`` (the label recognised, its
+    confidence, whether it was the target) and ``seen_at`` (the estimated centre [m]); empty
+    without a perceiver or before the cycle's look ends."""
+    r = None if perceiver is None else perceiver.record
+    if r is None:
+        return {}
+    if not r.seen or perceiver is None or perceiver.estimate is None:
+        return {"seen": f"{r.label}: not seen", "seen_at": None}
+    on = "on the target" if r.right_object else "NOT the target"
+    text = f"seen {r.label_seen} ({r.confidence:.0%}, {on})"
+    return {"seen": text, "seen_at": tuple(float(c) for c in perceiver.estimate)}
+
+
+class SeenStatus(Mapping[str, object]):
+    """The runner's live status with what its perceiver saw added (``seen``, ``seen_at``:
+    :func:`shown`), read afresh at every key: what a video's frame recorder reads. Nothing is
+    shown while a cycle's target spawns (the last look was the cycle before's).
+
+    Args:
+        status: The runner's status.
+        perceiver: The runner's perceiver.
+    """
+
+    KEYS = ("seen", "seen_at")
+
+    def __init__(self, status: Mapping[str, object], perceiver: Perceiving) -> None:
+        self.status, self.perceiver = status, perceiver
+
+    def _shown(self) -> dict[str, object]:
+        return {} if self.status.get("phase") == "spawn" else shown(self.perceiver)
+
+    def __getitem__(self, key: str) -> object:
+        if key in self.KEYS:
+            return self._shown()[key]
+        return self.status[key]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self.status
+        yield from self._shown()
+
+    def __len__(self) -> int:
+        return len(self.status) + len(self._shown())
+
+
+def with_seen(status: Mapping[str, object], perceiver: Perceiving | None) -> Mapping[str, object]:
+    """``status`` with what ``perceiver`` saw (:class:`SeenStatus`); as it is without one."""
+    return status if perceiver is None else SeenStatus(status, perceiver)

@@ -28,6 +28,7 @@ from kr210_sim.robot.description import RobotDescription
 from kr210_sim.sandbox.user_ik import UserIk
 from kr210_sim.score.report import build_report, cycle_line
 from kr210_sim.sim.cell import Cell
+from kr210_sim.sim.perceived import PerceiverFactory
 from kr210_sim.sim.runner import RunConfig, Runner
 from kr210_sim.util.interrupts import check as check_interrupt
 from kr210_sim.util.interrupts import signal_name
@@ -47,9 +48,11 @@ def episode_runner(
     keep_recordings: bool = False,
     rng: np.random.Generator | None = None,
     checker: CollisionChecker | None = None,
+    perceiver: PerceiverFactory | None = None,
 ) -> Runner:
     """A fresh runner for one cycle of ``RunConfig(cycles=1, seed=seed, slot=slot,
-    randomize=randomize)``: the arm at the ready pose, every target spare, the bin empty.
+    randomize=randomize, perceive=perceiver is not None)``: the arm at the ready pose, every
+    target spare, the bin empty.
 
     Its first cycle (``runner.run_cycle(1, runner.slot_for_cycle())``) is the episode; it is
     the first cycle of ``run --cycles 1 --seed <seed>`` with the same options.
@@ -67,11 +70,15 @@ def episode_runner(
         rng: The generator the slot and target are drawn from, instead of one seeded with
             ``seed`` (a Gymnasium environment passes its own ``np_random``).
         checker: A collision checker of the model to plan with (default: one built for it).
+        perceiver: Makes the perceiver of ``run --perceive``
+            (:class:`kr210_sim.sensors.perceiver.Perceiver`): the episode picks from what the
+            sensors saw. None: the truth is told.
 
     Raises:
         ConfigError: A slot outside the cell.
     """
-    config = RunConfig(cycles=1, seed=seed, slot=slot, randomize=randomize)
+    perceive = perceiver is not None
+    config = RunConfig(cycles=1, seed=seed, slot=slot, randomize=randomize, perceive=perceive)
     if model is not None and copy_model:
         model = copy.copy(model)
     return Runner(
@@ -82,6 +89,7 @@ def episode_runner(
         ik=ik,
         rng=rng,
         checker=checker,
+        perceiver=perceiver,
     )
 
 

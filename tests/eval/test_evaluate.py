@@ -400,3 +400,38 @@ def test_no_success_prints_no_cycle_time(
     assert main(argv) == 1
     out = capsys.readouterr().out
     assert "cycle time    none (no episode succeeded)" in out and "0.00 s" not in out
+
+
+def test_a_perceived_evaluation_scores_what_was_seen_and_replays_as_a_perceived_run(
+    tmp_path: Path,
+) -> None:
+    """`evaluate --perceive --randomize`: every record carries its perception scored against
+    the truth, the summary sums them up, and an episode replays as `run --perceive`."""
+    from kr210_sim.cell.toml import PUBLISHED_CELL
+
+    cell = PUBLISHED_CELL.parent / "cluttered.toml"
+    config = EvalConfig(episodes=3, seed=2, randomize=True, cell=cell, perceive=True, workers=2)
+    out = evaluate(config, report=tmp_path / "e.json")
+    report = out.report
+    records = sorted(_lines(tmp_path / "e.episodes.jsonl"), key=lambda r: r["episode"])
+    blocks = [r["perception"] for r in records]
+    assert all(b["looks"] >= 1 and b["clusters"] for b in blocks)
+    p = report["summary"]["perception"]
+    assert p["episodes"] == 3 and p["recognised"] == sum(b["right_object"] for b in blocks)
+    errors = [b["position_error_mm"] for b in blocks if b["position_error_mm"] is not None]
+    assert p["position_error_mm"]["max"] == max(errors)
+    assert p["position_error_mm"]["median"] == pytest.approx(sorted(errors)[1], abs=1e-6)
+    assert report["config"]["perceive"] is True
+    assert " --randomize --perceive" in report["config"]["replay"]
+    # the episode is `run --perceive` of its seed, field for field but the measured ones
+    replay = tmp_path / "replay.json"
+    argv = ["run", "--cycles", "1", "--seed", str(records[0]["seed"]), "--randomize"]
+    argv += ["--perceive", "--cell", str(cell), "--report", str(replay)]
+    assert main(argv) in (0, 1)
+    (cycle,) = json.loads(replay.read_text())["cycles"]
+    same = {k: v for k, v in records[0].items() if k not in ("episode", "seed")}
+    assert strip_wall(cycle) == strip_wall(same)
+    # told the truth, the same episodes carry no perception at all
+    told = evaluate(EvalConfig(episodes=1, seed=2, randomize=True, cell=cell))
+    assert "perception" not in told.report["summary"]
+    assert "perceive" not in told.report["config"]

@@ -166,3 +166,29 @@ def test_sigterm_on_a_driver_that_started_ray_leaves_nothing_behind(tmp_path: Pa
     assert data["interrupted"] is True
     assert data["summary"]["episodes"] == record_count(tmp_path / "e.episodes.jsonl")
     assert left_behind(started, grace=15.0) == []
+
+
+def test_a_perceived_evaluation_on_the_cluster_is_the_local_one(
+    cluster: Any, tmp_path: Path
+) -> None:
+    """`evaluate --perceive --randomize --backend ray`: the Ray workers render the sensors and
+    perceive as a local worker does; the report (perception block included) is the same."""
+    from kr210_sim.cell.toml import PUBLISHED_CELL
+
+    config = {
+        "episodes": 4,
+        "seed": 9,
+        "randomize": True,
+        "perceive": True,
+        "cell": PUBLISHED_CELL.parent / "cluttered.toml",
+    }
+    (tmp_path / "local").mkdir(), (tmp_path / "ray").mkdir()
+    evaluate(EvalConfig(**config, workers=1), report=tmp_path / "local" / "e.json")
+    out = evaluate(
+        EvalConfig(**config, backend="ray", address=cluster.address),
+        report=tmp_path / "ray" / "e.json",
+    )
+    assert _text(tmp_path / "ray" / "e.json") == _text(tmp_path / "local" / "e.json")
+    p = out.report["summary"]["perception"]
+    assert p["episodes"] == 4 and p["position_error_mm"] is not None
+    assert out.report["wall_execution"]["nodes"] == 2

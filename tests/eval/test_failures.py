@@ -76,3 +76,20 @@ def test_evaluate_records_the_failed_episodes_of_a_user_ik(
     assert failed["reason"] == "ik_failed"
     assert made.name == f"{failed['seed']}_ik_failed.npz"
     assert read_recording(made).meta["summary"]["successes"] == 0
+
+
+def test_a_perceived_episode_is_recorded_perceived(tmp_path: Path) -> None:
+    """`evaluate --perceive --record-failures`: the re-run perceives as the episode did (the
+    same estimate, so the same outcome), not from the truth."""
+    from kr210_sim.eval.episode import run_episode
+    from kr210_sim.util.paths import SCENES_DIR
+
+    cell = SCENES_DIR / "cells" / "cluttered.toml"
+    seed = 77
+    expected = run_episode(seed, True, cell, perceive=True)
+    assert expected.perception is not None
+    made = record_episode(seed, True, tmp_path, cell, perceive=True)
+    assert made.reason == (expected.reason or "success")
+    p = read_recording(made.path).meta["summary"]["perception"]
+    assert p["cycles"] == 1 and p["recognised"] == int(expected.perception["right_object"])
+    assert p["position_error_mm"]["max"] == expected.perception["position_error_mm"]

@@ -118,3 +118,59 @@ def test_empty_summary() -> None:
     assert s["episodes"] == 0 and s["success_rate"] == 0.0
     assert s["success_rate_ci95"] == [0.0, 1.0]
     assert s["cycle_time"] == {"mean": 0.0, "std": 0.0, "p50": 0.0, "p95": 0.0, "max": 0.0}
+
+
+def _perceived(n: int, seed: int) -> list[dict[str, Any]]:
+    """Records of ``--perceive`` episodes: some not seen, some on the wrong object."""
+    out = _records(n, seed)
+    rng = np.random.default_rng(seed + 100)
+    for r in out:
+        seen = bool(rng.uniform() > 0.1)
+        r["perception"] = {
+            "label": "red_can",
+            "seen": seen,
+            "label_seen": "red_can" if seen else None,
+            "right_object": seen and bool(rng.uniform() > 0.05),
+            "position_error_mm": round(float(rng.gamma(2.0, 1.2)), 3) if seen else None,
+            "axis_error_deg": 0.5 if seen else None,
+            "confidence": 0.8,
+            "clusters": [3],
+            "looks": int(rng.integers(1, 3)),
+            "reason": "",
+            "cpu_time_ms": round(float(rng.uniform(30, 90)), 3),
+            "wall_look_ms": 120.0,
+        }
+    return out
+
+
+def test_perception_summary_matches_a_direct_computation_in_any_order() -> None:
+    from kr210_sim.eval.summary import PerceptionSummary
+
+    records = _perceived(300, seed=5)
+    p = _summarise(records).summary()["perception"]
+    blocks = [r["perception"] for r in records]
+    errors = np.array([b["position_error_mm"] for b in blocks if b["seen"]])
+    right = sum(b["right_object"] for b in blocks)
+    assert (p["episodes"], p["recognised"]) == (300, right)
+    assert p["recognition_rate"] == right / 300
+    assert p["recognition_rate_ci95"] == [round(v, 6) for v in wilson_interval(right, 300)]
+    assert p["not_seen"] == sum(not b["seen"] for b in blocks) > 0
+    assert p["second_looks"] == sum(b["looks"] > 1 for b in blocks)
+    assert p["position_error_mm"]["median"] == pytest.approx(float(np.median(errors)), abs=1e-6)
+    assert p["position_error_mm"]["p95"] == pytest.approx(np.percentile(errors, 95), abs=1e-6)
+    assert p["position_error_mm"]["max"] == float(errors.max())
+    cpu = [b["cpu_time_ms"] for b in blocks]
+    assert p["cpu_time_ms"]["mean"] == pytest.approx(float(np.mean(cpu)), rel=1e-12)
+    assert p["cpu_time_ms"]["max"] == max(cpu)
+    rng = np.random.default_rng(6)
+    for _ in range(10):
+        shuffled = [records[i] for i in rng.permutation(len(records))]
+        assert _summarise(shuffled).summary()["perception"] == p
+    # nothing seen: no errors to sum up, never a NaN
+    blind = PerceptionSummary()
+    blind.add({**blocks[0], "seen": False, "right_object": False, "position_error_mm": None})
+    assert blind.summary()["position_error_mm"] is None
+
+
+def test_a_summary_without_perception_has_no_perception_block() -> None:
+    assert "perception" not in _summarise(_records(20, seed=8)).summary()
