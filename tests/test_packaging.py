@@ -74,6 +74,7 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/exercise/shims/kuka_arm/srv/__init__.py",
         "kr210_sim/schemas/run.schema.json",
         "kr210_sim/schemas/cell.schema.json",
+        "kr210_sim/schemas/episode.schema.json",
     } <= names
     assert any(n.startswith("kr210_sim/robot/_ik_native.") and n.endswith(".so") for n in names)
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))

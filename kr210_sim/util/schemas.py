@@ -1,6 +1,7 @@
 """The JSON Schemas (draft 2020-12) of the files kr210_sim reads and writes, shipped in the
-package (``kr210_sim/schemas/*.json``): ``run`` (the report ``run`` and ``view`` write) and
-``cell`` (a cell file, as TOML loads it). Validate with any JSON Schema library, e.g.
+package (``kr210_sim/schemas/*.json``): ``run`` (the report ``run`` and ``view`` write),
+``episode`` (a record line of ``evaluate``'s episodes file) and ``cell`` (a cell file, as TOML
+loads it). Validate with any JSON Schema library, e.g.
 ``jsonschema.validate(report, load_schema("run"))`` (see ``docs/reference/schemas.md``)."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 from kr210_sim.errors import ConfigError
 
 #: The schemas shipped, by name.
-SCHEMAS = ("run", "cell")
+SCHEMAS = ("run", "episode", "cell")
 
 
 def schema_text(name: str) -> str:

@@ -15,6 +15,7 @@ import pytest
 
 from kr210_sim.cell import sensing_toml
 from kr210_sim.cell import toml as cell_toml
+from kr210_sim.cli import main
 from kr210_sim.errors import ConfigError
 from kr210_sim.jobs import run_job
 from kr210_sim.sim.runner import RunConfig
@@ -58,7 +59,9 @@ def test_each_schema_is_draft_2020_12_strict_and_documented(name: str) -> None:
 
 
 def test_an_unknown_schema_is_one_line() -> None:
-    with pytest.raises(ConfigError, match=r"no schema 'evaluate' \(there are: run, cell\)"):
+    with pytest.raises(
+        ConfigError, match=r"no schema 'evaluate' \(there are: run, episode, cell\)"
+    ):
         load_schema("evaluate")
 
 
@@ -116,6 +119,29 @@ def test_the_run_schema_lists_every_setting_of_a_run() -> None:
     assert set(config["properties"]) == {f.name for f in dataclasses.fields(RunConfig)}
     motion = config["properties"]["motion"]["properties"]
     assert set(motion) == {f.name for f in dataclasses.fields(MotionConfig)}
+
+
+# -- evaluate's episode records -----------------------------------------------------------------
+@pytest.mark.slow
+def test_evaluates_episode_records_pass_the_episode_schema(tmp_path: Path) -> None:
+    """The records of a real ``evaluate`` (its episodes file after the header), and the shared
+    part: a record is the run report's cycle record after its episode number and seed."""
+    report = tmp_path / "eval.json"
+    assert main(["evaluate", "--episodes", "2", "--report", str(report)]) == 0
+    lines = (tmp_path / "eval.episodes.jsonl").read_text().splitlines()
+    header, records = json.loads(lines[0]), [json.loads(line) for line in lines[1:]]
+    assert header["kind"] == "kr210_sim.evaluate.episodes" and len(records) == 2
+    episode, run = _validator("episode"), load_schema("run")
+    for record in records:
+        assert not [e.message for e in episode.iter_errors(record)]
+    props = load_schema("episode")["properties"]
+    assert {k: v for k, v in props.items() if k not in ("episode", "seed")} == run["$defs"][
+        "cycle"
+    ]["properties"]
+    broken = {**records[0], "episode": -1}
+    assert any("less than the minimum" in e.message for e in episode.iter_errors(broken))
+    broken = {k: v for k, v in records[0].items() if k != "seed"}
+    assert any("'seed' is a required" in e.message for e in episode.iter_errors(broken))
 
 
 # -- the cell file -------------------------------------------------------------------------------
