@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import os
+import subprocess
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 import pytest
-from chromium import Chromium, ViewProcess, find_chromium
+from chromium import Chromium, ViewProcess, find_chromium, screenshot_command
 
 from kr210_sim.jobs import snapshot_job
 from kr210_sim.view.studio import FAST_OFF
@@ -134,5 +135,26 @@ def test_a_plain_headless_chromium_shows_the_connected_page_bright(
             time.sleep(1.0)
         time.sleep(2.0)  # the render settings reach the page after it connects
         img = _image(browser.screenshot())
+    page = luminance(img[ROWS])
+    assert abs(page - offscreen) <= BRIGHTNESS_TOL * offscreen, (page, offscreen)
+
+
+@pytest.mark.slow
+@pytest.mark.render
+@pytest.mark.parametrize("held_view", ["fast"], indirect=True)
+def test_the_screenshot_command_of_the_docs_shows_the_connected_page(
+    held_view: ViewProcess, offscreen: float, tmp_path: Path
+) -> None:
+    """``chromium --headless --screenshot --virtual-time-budget=... --run-all-compositor-stages-
+    before-draw URL`` (docs/how-to/viewer.md): the page connected ("Controlling", the panel
+    drawn) and as bright as the offscreen render (before the fix: 0.135 against 0.508)."""
+    out = tmp_path / "page.png"
+    profile = tmp_path / "profile"
+    cmd = screenshot_command(held_view.url, out, WIDTH, HEIGHT)
+    cmd.insert(-1, f"--user-data-dir={profile}")
+    subprocess.run(cmd, check=True, capture_output=True, timeout=120)
+    img = _image(out.read_bytes())
+    assert img.shape[:2] == (HEIGHT, WIDTH)
+    assert connected(img), "the page is still 'Connecting...'"
     page = luminance(img[ROWS])
     assert abs(page - offscreen) <= BRIGHTNESS_TOL * offscreen, (page, offscreen)
