@@ -57,8 +57,9 @@ class BranchNote:
         kind: How it differs (:func:`~kr210_sim.sandbox.ik_guard.branch_change`: "wrist
             flip", "2pi jump", "q4/q6 split", "arm branch change").
         difference_deg: The answer minus the built-in solution, per joint [deg].
-        extra_s: Lower bound of the time the difference adds to the move into the pose and,
-            for the drop pose, to the return to the ready pose out of it [s].
+        extra_s: The time the difference adds to the move into the pose and, for the drop pose,
+            to the return to the ready pose out of it, by the moves' lower bounds [s] (negative
+            when the user's branch is the quicker one).
     """
 
     pose: str
@@ -154,9 +155,13 @@ class BranchLog:
             if ros_form
             else "return the solution nearest q_ref"
         )
-        return (
+        head = (
             f"{len(self.notes)} of {self.answered} poses answered on another branch than the "
             f"one nearest the arm's state that the built-in IK takes: {'; '.join(parts)}. "
+        )
+        if per_cycle <= 0.0:
+            return head + f"The moves into and out of them take no longer ({per_cycle:+.2f} s)."
+        return head + (
             f"The moves into and out of them take at least {per_cycle:.2f} s longer a cycle. "
             f"Correct, but slower: to move as little, {why}."
         )

@@ -12,6 +12,7 @@ import pytest
 from ros_class import numpy_server
 
 from kr210_sim.cli import main
+from kr210_sim.plan.ik_branch import BranchLog, BranchNote
 from kr210_sim.plan.planner import Planner
 from kr210_sim.plan.poses import untwisted_nearest
 from kr210_sim.robot.description import load_robot
@@ -92,3 +93,10 @@ def test_a_ros_server_answering_one_wrist_is_told_why_its_cycles_are_longer(
     t_near = np.mean([c["cycle_time"] for c in nearest["cycles"]])
     t_fixed = np.mean([c["cycle_time"] for c in fixed["cycles"]])
     assert t_fixed - t_near >= loud["extra_s_per_cycle"] > 0.5, (t_near, t_fixed, loud)
+
+
+def test_a_branch_that_saves_time_is_not_called_slower() -> None:
+    note = BranchNote("standoff", "wrist flip", (0.0, 0.0, 0.0, -180.0, 10.0, 180.0), -0.05)
+    summary = BranchLog(answered=2, notes=[note]).summary(cycles=1, ros_form=False)
+    assert summary["extra_s"] == -0.05 and "take no longer (-0.05 s)" in summary["note"]
+    assert "slower" not in summary["note"]
