@@ -92,6 +92,21 @@ def test_real_run_reports_pass_the_run_schema(reports: dict[str, dict[str, Any]]
     assert "branches" in reports["user_ik"]["summary"]["ik"]  # the optional blocks were there
 
 
+def test_the_report_of_a_run_stopped_before_its_first_cycle_passes(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """No cycles, no cell, no wall figures: every optional block left out."""
+    import signal
+
+    from kr210_sim.sim.session import unstarted_report
+    from kr210_sim.util.interrupts import Interrupted
+
+    report = json.loads(json.dumps(unstarted_report(RunConfig(cycles=3), Interrupted(15))))
+    assert report["cycles"] == [] and report["interrupted_by"] == signal.SIGTERM.name
+    assert not [e.message for e in _validator("run").iter_errors(report)]
+    assert "interrupted before the first cycle" in capsys.readouterr().err
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("change", "message"),
