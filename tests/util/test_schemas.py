@@ -68,8 +68,8 @@ def test_an_unknown_schema_is_one_line() -> None:
 # -- the run report ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def reports(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
-    """Reports made by real runs: the built-in IK, a user's IK (the summary's ``ik`` block), and
-    one on a cell file with obstacles (``ready_q_deg`` / detours)."""
+    """Reports made by real runs: the built-in IK, a user's IK (the summary's ``ik`` block), one
+    on a cell file with obstacles, and a ``--perceive`` one (its ``perception`` blocks)."""
     from kr210_sim.sandbox.user_ik import load_ik
 
     d = tmp_path_factory.mktemp("reports")
@@ -78,6 +78,11 @@ def reports(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any
         "user_ik": run_job(RunConfig(cycles=1, seed=2), d / "ik.json", ik=load_ik(WORKED_IK)),
         "column": run_job(
             RunConfig(cycles=1, seed=0), d / "column.json", cell=REPO / "scenes/cells/column.toml"
+        ),
+        "perceive": run_job(
+            RunConfig(cycles=1, seed=0, perceive=True),
+            d / "perceive.json",
+            cell=REPO / "scenes/cells/cluttered.toml",
         ),
     }
     return {name: json.loads(json.dumps(job.report)) for name, job in made.items()}
@@ -90,6 +95,8 @@ def test_real_run_reports_pass_the_run_schema(reports: dict[str, dict[str, Any]]
         errors = [f"{list(e.absolute_path)}: {e.message}" for e in validator.iter_errors(report)]
         assert not errors, (name, errors)
     assert "branches" in reports["user_ik"]["summary"]["ik"]  # the optional blocks were there
+    assert "perception" in reports["perceive"]["summary"]
+    assert reports["perceive"]["config"]["perceive"] is True
 
 
 def test_the_report_of_a_run_stopped_before_its_first_cycle_passes(
