@@ -272,7 +272,7 @@ def _add_viewer_options(cmd: argparse.ArgumentParser) -> None:
         "--quality",
         choices=("full", "fast"),
         default="full",
-        help="fast: no shadows, reflections, haze or post-processing (for software WebGL)",
+        help="fast: no shadows, reflections or haze (for software WebGL)",
     )
     cmd.add_argument(
         "--speed", type=argtypes.speed, default=1.0, help="simulated seconds per wall second (1)"

@@ -174,6 +174,9 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
             f"  IK {s['spec']}: {s['calls']} calls, {_duration(t['per_call_mean'])} mean, "
             f"{_duration(t['per_call_max'])} max per call\n"
         )
+        branches = s.get("branches", {})
+        if branches.get("other_branch"):
+            out.write(f"  IK branches: {branches['note']}\n")
     out.write(f"  report: {result.path}\n")
     if result.record_path is not None and result.record_frames:
         size = result.record_path.stat().st_size / 1e6

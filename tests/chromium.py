@@ -237,6 +237,23 @@ class Chromium:
         self.close()
 
 
+def screenshot_command(
+    url: str, out: Path, width: int = 1200, height: int = 800, budget_ms: int = 10000
+) -> list[str]:
+    """The one command that screenshots the viewer page without DevTools (``docs/how-to/
+    viewer.md``): ``--screenshot`` after ``budget_ms`` of virtual time [ms], with
+    ``--run-all-compositor-stages-before-draw`` (without it the PNG holds the page's first frame,
+    "Connecting..." in Studio's status bar, however long the budget)."""
+    exe = find_chromium()
+    if exe is None:
+        raise ConfigError("no Chromium found: install chromium-headless-shell (Debian) or chromium")
+    args = [exe, *FLAGS, f"--window-size={width},{height}", f"--virtual-time-budget={budget_ms}"]
+    args += ["--run-all-compositor-stages-before-draw", f"--screenshot={out}", url]
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        args.insert(1, "--no-sandbox")  # Chromium's sandbox refuses to run as root
+    return args
+
+
 def free_port() -> int:
     """A TCP port free on 127.0.0.1 now."""
     with socket.socket() as s:

@@ -72,6 +72,9 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
         "kr210_sim/exercise/shims/rospy/__init__.py",
         "kr210_sim/exercise/shims/tf/transformations.py",
         "kr210_sim/exercise/shims/kuka_arm/srv/__init__.py",
+        "kr210_sim/schemas/run.schema.json",
+        "kr210_sim/schemas/cell.schema.json",
+        "kr210_sim/schemas/episode.schema.json",
     } <= names
     assert any(n.startswith("kr210_sim/robot/_ik_native.") and n.endswith(".so") for n in names)
     licence = next(n for n in names if n.endswith(".dist-info/licenses/LICENSE"))
@@ -99,6 +102,8 @@ def test_wheel_installed_in_a_fresh_venv_runs_a_cycle_from_another_folder(tmp_pa
     assert "PASS: 1/1" in out
     report = json.loads((elsewhere / "reports" / "run.json").read_text())
     assert report["summary"]["successes"] == 1
+    schema = "from kr210_sim.util.schemas import load_schema; print(load_schema('run')['title'])"
+    assert _run([str(python), "-c", schema], elsewhere, env).strip() == "kr210_sim run report"
 
     # An original-form IK_server.py (Python 2, tabs, tf, kuka_arm.srv) graded by the installed
     # copy: its ROS shims and Python 2 reading come from the wheel.

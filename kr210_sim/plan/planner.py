@@ -52,6 +52,7 @@ from kr210_sim.plan.cycle import (
     drop_spot_order,
     pick_order,
 )
+from kr210_sim.plan.ik_branch import BranchLog
 from kr210_sim.plan.poses import (
     GRASP_HEADINGS,
     branch_solutions,
@@ -63,12 +64,7 @@ from kr210_sim.plan.poses import (
 )
 from kr210_sim.plan.routing import Router, clear_ready
 from kr210_sim.plan.timing import rest_to_rest_bound
-from kr210_sim.plan.trajectory import (
-    JointLimits,
-    line_poses,
-    plan_cartesian_line,
-    plan_ptp,
-)
+from kr210_sim.plan.trajectory import JointLimits, line_poses, plan_cartesian_line, plan_ptp
 from kr210_sim.robot.description import RobotDescription
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.ik_guard import CheckedIk
@@ -113,6 +109,7 @@ class Planner:
         self.grip_limits = JointLimits.from_robot(robot, motion, grip=True)
         self.ready_q = np.asarray(motion.ready_q, dtype=np.float64)
         self.user_ik = CheckedIk(ik, self.kinematics) if ik is not None else None
+        self.ik_branches = BranchLog()  # the user's answers against the built-in branch
         self.checker = checker
         #: Moves planned by OMPL around what blocked the direct move so far.
         self.detours = 0
@@ -215,7 +212,8 @@ class Planner:
         """IK for ``T`` nearest ``q_ref``, with the pose named in the error message
         (``untwisted``: preferring an untwisted wrist, :func:`untwisted_nearest`)."""
         if self.user_ik is not None:
-            return self.user_ik.solve(T, q_ref, f"{what} pose")
+            q = self.user_ik.solve(T, q_ref, f"{what} pose")
+            return self.ik_branches.see(T, q_ref, q, what, untwisted, self)
         try:
             if untwisted:
                 return untwisted_nearest(self.kinematics, T, q_ref)

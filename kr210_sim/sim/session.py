@@ -177,6 +177,9 @@ def runner_report(
     )
     if runner.planner.user_ik is not None:
         report["summary"]["ik"] = runner.planner.user_ik.summary()
+        ros_form = runner.planner.user_ik.user.batch is not None
+        branches = runner.planner.ik_branches.summary(len(runner.results), ros_form)
+        report["summary"]["ik"]["branches"] = branches
     if runner.layout.ready_q is not None or runner.planner.ready_note:
         # the ready pose the cell asked for, and the one used when that one touches the cell
         report["cell"]["ready_q_deg"] = np.degrees(runner.planner.ready_q).round(3).tolist()

@@ -34,7 +34,9 @@ def test_the_worked_example_runs_ten_of_ten(
     assert ik["spec"] == WORKED and ik["calls"] > 10 * 100
     t = ik["wall_time_s"]
     assert 0 < t["per_call_mean"] <= t["per_call_max"]
-    assert strip_wall(s)["ik"] == {"spec": WORKED, "calls": ik["calls"]}
+    branches = ik["branches"]  # the worked example answers the nearest solution, as ours
+    assert branches["answered"] == 20 and branches["other_branch"] == 0
+    assert strip_wall(s)["ik"] == {"spec": WORKED, "calls": ik["calls"], "branches": branches}
 
 
 def test_the_missing_offset_fails_every_cycle_as_ik_failed(
