@@ -134,14 +134,24 @@ def _add_plots_option(cmd: argparse.ArgumentParser) -> None:
 
 
 def _add_ik_options(
-    cmd: argparse.ArgumentParser, ik: str, timeout: str, required: bool = False
+    cmd: argparse.ArgumentParser, ik: str, timeout: str, required: bool = False, root: bool = True
 ) -> None:
-    """``--ik SPEC`` and ``--ik-timeout S``, with the help texts ``ik`` and ``timeout``."""
+    """``--ik SPEC``, ``--ik-timeout S`` and (with ``root``) ``--ik-root DIR``, with the help
+    texts ``ik`` and ``timeout``."""
     if required:
         cmd.add_argument("--ik", required=True, metavar="SPEC", help=ik)
     else:
         cmd.add_argument("--ik", default=None, metavar="SPEC", help=ik)
     cmd.add_argument("--ik-timeout", type=argtypes.seconds, default=None, metavar="S", help=timeout)
+    if root:
+        cmd.add_argument(
+            "--ik-root",
+            type=Path,
+            default=None,
+            metavar="DIR",
+            help="with --ik-timeout: the folder of your own files the jail shows your code "
+            "(default: a file SPEC's file alone), as grade shows a folder student",
+        )
     _add_no_jail_option(cmd, "run --ik-timeout's process unjailed (says what is then unprotected)")
 
 
@@ -327,6 +337,7 @@ def _add_evaluate(sub: _Commands) -> None:
         cmd,
         ik="plan every episode with your IK: package.module:function or path/to/file.py:function",
         timeout="run --ik in its own process; no answer within S seconds: the episode is ik_failed",
+        root=False,
     )
     _add_report_option(cmd, DEFAULT_EVAL_REPORT, "JSON report path")
     _add_min_success_option(cmd, 0.995, "pass bar for exit 0 (0.995)")

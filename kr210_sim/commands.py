@@ -50,15 +50,17 @@ def _load_ik(args: argparse.Namespace) -> Any:
     """The user's IK for ``--ik SPEC`` (None without one), with ``--ik-timeout`` in a process of
     its own, jailed unless ``--no-jail``; a bad SPEC, or no jail where one can be made, is a
     one-line error here, before anything runs."""
-    spec, timeout = args.ik, args.ik_timeout
+    spec, timeout, root = args.ik, args.ik_timeout, getattr(args, "ik_root", None)
     if spec is None:
-        if timeout is not None:
-            raise ConfigError("--ik-timeout needs --ik SPEC")
+        if timeout is not None or root is not None:
+            given = "--ik-timeout" if timeout is not None else "--ik-root"
+            raise ConfigError(f"{given} needs --ik SPEC")
         return None
     from kr210_sim.sandbox.ik_sandbox import load_user_ik
+    from kr210_sim.sandbox.user_ik import spec_root
 
     _no_jail(args)
-    return load_user_ik(spec, timeout)
+    return load_user_ik(spec, timeout, root=None if root is None else spec_root(spec, root))
 
 
 def _duration(seconds: float) -> str:

@@ -230,12 +230,17 @@ def video_name(name: str) -> str:
 def replay_command(job: StudentJob, cycle: int) -> str:
     """The command that runs the student's cycles 1..``cycle`` again and films them (the
     cell carries over between cycles, so the failed one is filmed last), as a shell line
-    run from where ``grade`` was called."""
+    run from where ``grade`` was called. A folder student's jail shows its folder, as
+    ``grade``'s did (``--ik-root``)."""
     spec = f"./{job.spec}" if job.spec.startswith("-") else job.spec  # not read as an option
     video = f"videos/{video_name(job.name)}_cycle{cycle}.mp4"
+    root = ""
+    if job.root and Path(job.root).is_dir():
+        folder = f"./{job.root}" if job.root.startswith("-") else job.root
+        root = f"--ik-root {shell_word(folder)} "
     return (
         f"python -m kr210_sim run --ik {shell_word(spec)} --ik-timeout {job.ik_timeout:g} "
-        f"--cycles {cycle} --seed {job.seed} --video {shlex.quote(video)}"
+        f"{root}--cycles {cycle} --seed {job.seed} --video {shlex.quote(video)}"
     )
 
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.errors import IkSpecError, one_line
+from kr210_sim.errors import ConfigError, IkSpecError, one_line
 from kr210_sim.exercise.files import sha256_regular
 from kr210_sim.exercise.form import is_ros_form, resolve_spec
 
@@ -136,6 +136,25 @@ def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
         if found is not None:
             return found
     return None
+
+
+def spec_root(spec: str, root: Path) -> Path:
+    """``--ik-root DIR``: the folder of the user's own files that a jail shows a file SPEC's
+    code (as ``grade`` shows a folder student its folder), checked: a folder, not a link, that
+    holds the SPEC's file.
+
+    Raises:
+        ConfigError: The SPEC is not a file's, or ``root`` is not a folder holding its file.
+    """
+    where = resolve_spec(spec).rpartition(":")[0]
+    if not _is_path(where):
+        raise ConfigError(f"--ik-root needs a file SPEC (path/to/file.py:function), got {spec!r}")
+    if root.is_symlink() or not root.is_dir():
+        raise ConfigError(f"--ik-root {str(root)!r}: not a folder (a link is not followed)")
+    folder = root.resolve()
+    if not Path(where).resolve().is_relative_to(folder):
+        raise ConfigError(f"--ik-root {str(root)!r} does not hold the SPEC's file {where!r}")
+    return folder
 
 
 def spec_files(spec: str) -> SpecFiles:

@@ -3,9 +3,11 @@ the film-it command, which must run as printed."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shlex
 import subprocess
+import sys
 import textwrap
 import time
 from pathlib import Path
@@ -14,6 +16,7 @@ import numpy as np
 import pytest
 
 from kr210_sim.cli import build_parser
+from kr210_sim.errors import ConfigError
 from kr210_sim.grading.roster import find_students
 from kr210_sim.grading.student import (
     StudentClock,
@@ -27,7 +30,8 @@ from kr210_sim.grading.student import (
     video_name,
 )
 from kr210_sim.robot import kinematics
-from kr210_sim.sandbox.ik_sandbox import SandboxStop
+from kr210_sim.sandbox.ik_sandbox import SandboxStop, load_user_ik
+from kr210_sim.sandbox.user_ik import spec_root
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "ik_dh.py"
@@ -125,6 +129,56 @@ def test_the_film_it_command_runs_as_printed_for_a_file_named_like_an_option(
     assert (args.cycles, args.seed, args.ik_timeout) == (4, 3, 60.0)  # type: ignore[attr-defined]
     assert str(args.video) == "videos/--x_cycle4.mp4"  # type: ignore[attr-defined]
     assert Path(args.ik.rpartition(":")[0]).is_file()  # type: ignore[attr-defined]
+
+
+@pytest.mark.slow
+def test_the_film_it_command_shows_a_folder_student_its_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A folder student whose ik.py imports a module beside it: grade's jail shows it the
+    folder, and so does the command grade prints to film its run (``--ik-root``); a file SPEC
+    alone shows the file alone (REDTEAM-4 row 8), where the import fails."""
+    monkeypatch.chdir(tmp_path)
+    folder = tmp_path / "class" / "carol"
+    folder.mkdir(parents=True)
+    (folder / "dh.py").write_text(EXAMPLE.read_text())
+    (folder / "ik.py").write_text("from dh import solve\n")
+    (student,) = find_students(["class"])
+    job = dataclasses.replace(_job(tmp_path, student.spec, student.name), root=student.root)
+    argv = shlex.split(replay_command(job, 1))[3:]
+    assert argv[argv.index("--ik-root") + 1] == "class/carol"
+    argv = argv[: argv.index("--video")]  # the run, not its film
+    filmed = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", *argv], capture_output=True, text=True, timeout=300
+    )
+    assert filmed.returncode == 0, filmed.stderr
+    assert "PASS: 1/1 cycles" in filmed.stdout
+    i = argv.index("--ik-root")
+    alone = subprocess.run(
+        [sys.executable, "-m", "kr210_sim", *argv[:i], *argv[i + 2 :]],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert alone.returncode == 2 and "No module named 'dh'" in alone.stderr, alone.stderr
+
+
+def test_ik_root_is_checked_before_anything_runs(tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "ik.py").write_text("def solve(T, q):\n    return q\n")
+    (tmp_path / "b").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "a")
+    spec = f"{tmp_path / 'a' / 'ik.py'}:solve"
+    assert spec_root(spec, tmp_path / "a") == (tmp_path / "a").resolve()
+    assert spec_root(spec, tmp_path) == tmp_path.resolve()
+    with pytest.raises(ConfigError, match="does not hold the SPEC's file"):
+        spec_root(spec, tmp_path / "b")
+    with pytest.raises(ConfigError, match="not a folder"):
+        spec_root(spec, tmp_path / "link")
+    with pytest.raises(ConfigError, match="needs a file SPEC"):
+        spec_root("kr210_sim.robot.kinematics:nearest", tmp_path / "a")
+    with pytest.raises(ConfigError, match="needs --ik-timeout"):
+        load_user_ik(spec, None, root=(tmp_path / "a").resolve())
 
 
 def test_the_film_it_command_names_the_same_file_whatever_its_bytes(tmp_path: Path) -> None:
