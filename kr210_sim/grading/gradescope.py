@@ -164,9 +164,9 @@ def results(record: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, A
 
 
 def _version() -> str:
-    from kr210_sim import __version__
+    from kr210_sim.util.versions import package_version
 
-    return str(__version__)
+    return package_version()
 
 
 def write_results(path: Path, report: Mapping[str, Any]) -> Path:
