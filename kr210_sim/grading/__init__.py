@@ -9,7 +9,9 @@ instructor can take to a course.
   (:func:`~kr210_sim.grading.ikcheck.run_check`), :mod:`~kr210_sim.grading.ik_debug` on the
   exercise's own ``IK_debug.py`` cases;
 * :mod:`~kr210_sim.grading.diagnose` and :mod:`~kr210_sim.grading.finding` explain a failure in
-  the student's terms; :mod:`~kr210_sim.grading.budget` sets the time allowed;
+  the student's terms, :mod:`~kr210_sim.grading.misses` names the failed cases and cycles no
+  pattern explains, and :mod:`~kr210_sim.grading.explain` gives ``ik-check`` and ``run --ik``
+  the same diagnoses; :mod:`~kr210_sim.grading.budget` sets the time allowed;
   :mod:`~kr210_sim.grading.leaderboard` ranks a class;
 * :mod:`~kr210_sim.grading.gradebook` scores each verdict and writes the CSV an LMS gradebook
   imports (``grade --csv``), :mod:`~kr210_sim.grading.gradescope` one submission's Gradescope
