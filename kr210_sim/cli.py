@@ -222,6 +222,20 @@ def _add_run(sub: _Commands) -> None:
         help="processes rendering the video (one per core; 1: render in this process)",
     )
     cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
+    cmd.add_argument(
+        "--perception",
+        default=None,
+        metavar="SPEC",
+        help="with --perceive, your perception in place of ours, jailed: "
+        "package.module:function or path/to/file.py:function",
+    )
+    cmd.add_argument(
+        "--perception-timeout",
+        type=argtypes.seconds,
+        default=None,
+        metavar="S",
+        help="time --perception's function may take per look (10)",
+    )
     cmd.set_defaults(func=commands.run)
 
 

@@ -36,14 +36,17 @@ def _no_jail(args: argparse.Namespace) -> None:
     """
     if not getattr(args, "no_jail", False):
         return
-    if args.ik_timeout is None:
+    if args.ik_timeout is None and getattr(args, "perception", None) is None:
         raise ConfigError(
             "--no-jail needs --ik-timeout S: without it your IK runs in this process, unjailed"
         )
     from kr210_sim.sandbox.jail import JAIL_ENV, unjailed_warning
 
     os.environ[JAIL_ENV] = "0"
-    sys.stderr.write(unjailed_warning("your IK's"))
+    if args.ik_timeout is not None:
+        sys.stderr.write(unjailed_warning("your IK's"))
+    if getattr(args, "perception", None) is not None:
+        sys.stderr.write(unjailed_warning("your perception function's"))
 
 
 def _load_ik(args: argparse.Namespace) -> Any:
@@ -59,6 +62,17 @@ def _load_ik(args: argparse.Namespace) -> Any:
 
     _no_jail(args)
     return load_user_ik(spec, timeout)
+
+
+def _perception(args: argparse.Namespace) -> None:
+    """Start ``--perception SPEC``'s process now (jailed unless ``--no-jail``), so a bad SPEC, or
+    no jail where one can be made, is a one-line error before anything runs (the run takes the
+    same process)."""
+    from kr210_sim.api import _perception as start
+
+    if args.perception is not None and args.ik is None:  # else _load_ik said it
+        _no_jail(args)
+    start(args.perceive, args.perception, args.perception_timeout)
 
 
 def _duration(seconds: float) -> str:
@@ -93,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:  # a bad SPEC is one line here, before anything runs
         ik = _load_ik(args)
+        _perception(args)
     except KeyboardInterrupt as exc:  # one the user's module raises (signals wait for the job)
         from kr210_sim.sim.runner import RunConfig
         from kr210_sim.sim.session import unstarted_report
@@ -135,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
             record_rate=args.record_rate or DEFAULT_RECORD_RATE,
             render_workers=args.render_workers,
             perceive=args.perceive,
+            perception=args.perception,
+            perception_timeout=args.perception_timeout,
         )
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]
@@ -177,6 +194,12 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
         branches = s.get("branches", {})
         if branches.get("other_branch"):
             out.write(f"  IK branches: {branches['note']}\n")
+    function = summary.get("perception", {}).get("function")
+    if function is not None:
+        out.write(
+            f"  perception {function['spec']}: {function['looks']} looks in "
+            f"{function['confinement']}, {len(function['faults'])} faults\n"
+        )
     out.write(f"  report: {result.path}\n")
     if result.record_path is not None and result.record_frames:
         size = result.record_path.stat().st_size / 1e6
