@@ -350,7 +350,14 @@ def evaluate(args: argparse.Namespace) -> int:
         cell=args.cell,
         ik_timeout=args.ik_timeout,
         perceive=args.perceive,
+        perception=args.perception,
+        perception_timeout=args.perception_timeout,
     )
+    perceiving = config.perceiving
+    if isinstance(perceiving, tuple):  # a bad SPEC is one line here, before anything runs
+        from kr210_sim.sandbox.perception_sandbox import open_perception
+
+        open_perception(*perceiving)
     outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
     report = outcome.report
     s = report["summary"]
@@ -377,8 +384,12 @@ def evaluate(args: argparse.Namespace) -> int:
     )
     if "perception" in s:
         p, e = s["perception"], s["perception"]["position_error_mm"]
-        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
-        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err if e else ''}\n")
+        err = (  # none when nothing was recognised
+            f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+            if e
+            else ""
+        )
+        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err}\n")
     out.write(
         f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
@@ -394,7 +405,7 @@ def evaluate(args: argparse.Namespace) -> int:
             config.cell or config.scene,
             ik=args.ik,
             ik_timeout=args.ik_timeout,
-            perceive=config.perceive,
+            perceive=config.perceiving,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:

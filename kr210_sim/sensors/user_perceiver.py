@@ -157,12 +157,15 @@ class UserPerception:
         return Percept(pick_label, target, None, confident, why, looks, cpu)
 
 
-def user_perceiver(sandbox: PerceptionSandbox) -> PerceiverFactory:
+def user_perceiver(
+    sandbox: PerceptionSandbox, recogniser: RecognitionModel | None = None
+) -> PerceiverFactory:
     """What makes the perceiver of ``run --perceive --perception SPEC``: ours, with the user's
-    function (in ``sandbox``) in place of our pipeline."""
+    function (in ``sandbox``) in place of our pipeline (``recogniser``: the kinds it is told,
+    default the shipped model's)."""
 
     def make(model: mujoco.MjModel, planner: Planner) -> Perceiver:
         estimator = UserPerception(sandbox, pick_list_of(model))
-        return Perceiver(model, planner, estimator=estimator)
+        return Perceiver(model, planner, recogniser, estimator=estimator)
 
     return make
