@@ -54,7 +54,7 @@ def test_the_command_refuses_a_bad_spec_before_any_episode(
 
 @pytest.mark.chaotic
 def test_workers_pick_with_the_users_function_and_its_faults_are_reasons(
-    tmp_path: Path, jail_ok: None
+    tmp_path: Path, capsys: pytest.CaptureFixture, jail_ok: None
 ) -> None:
     user = tmp_path / "mine.py"
     user.write_text(EXAMPLE.read_text() + "\n\ndef broken(look):\n    raise OSError('no camera')\n")
@@ -74,11 +74,13 @@ def test_workers_pick_with_the_users_function_and_its_faults_are_reasons(
     for r in records:
         assert r["perception"]["right_object"] and r["perception"]["position_error_mm"] < 10.0
 
-    config = EvalConfig(
-        episodes=1, workers=1, cell=CLUTTERED, perceive=True, perception=f"{user}:broken"
-    )
-    report = evaluate(config, tmp_path / "bad.json").report
-    (failed,) = report["failed_episodes"]
+    from kr210_sim.cli import main
+
+    argv = ["evaluate", "--episodes", "1", "--workers", "1", "--cell", str(CLUTTERED)]
+    argv += ["--perceive", "--perception", f"{user}:broken", "--report", str(tmp_path / "b.json")]
+    assert main(argv) == 1
+    assert "  recognised    0/1\n" in capsys.readouterr().out  # it raised a TypeError on None
+    (failed,) = json.loads((tmp_path / "b.json").read_text())["failed_episodes"]
     assert failed["reason"] == "not_seen"
     assert failed["perception"]["reason"].startswith(
         "mine.py:broken raised OSError: no camera (mine.py line"
