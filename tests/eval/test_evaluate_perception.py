@@ -85,3 +85,24 @@ def test_workers_pick_with_the_users_function_and_its_faults_are_reasons(
     assert failed["perception"]["reason"].startswith(
         "mine.py:broken raised OSError: no camera (mine.py line"
     )
+
+
+def test_resume_refuses_the_episodes_of_another_version_of_the_function(
+    tmp_path: Path, jail_ok: None
+) -> None:
+    user = tmp_path / "blind.py"
+    user.write_text("def perceive(look):\n    return []\n")
+    config = EvalConfig(
+        episodes=2, workers=1, cell=CLUTTERED, perceive=True, perception=f"{user}:perceive"
+    )
+    report = tmp_path / "e.json"
+    evaluate(EvalConfig(**{**_fields(config), "episodes": 1}), report)
+    user.write_text("def perceive(look):\n    return [] \n")  # edited: another function
+    with pytest.raises(ConfigError, match="its episodes differ in perception"):
+        evaluate(config, report, resume=True)
+
+
+def _fields(config: EvalConfig) -> dict:  # type: ignore[type-arg]
+    import dataclasses
+
+    return {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
