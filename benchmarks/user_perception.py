@@ -1,6 +1,7 @@
 """Bring your own perception: what the jail costs a look, and what the worked example gets.
 
-Run: ``python benchmarks/user_perception.py [--looks N] [--no-jail] [--cycles C]``. Prints:
+Run: ``python benchmarks/user_perception.py [--looks N] [--no-jail] [--cycles C] [--randomize]``.
+Prints:
 
 - the round trip of one 640 x 480 RGB-D look (2.1 MB: the images' raw bytes after one wire
   frame) to a function that returns at once, in its sandbox (jailed unless ``--no-jail``):
@@ -8,7 +9,8 @@ Run: ``python benchmarks/user_perception.py [--looks N] [--no-jail] [--cycles C]
 - the same look to ``examples/perception_simple.py``: its CPU time in the sandbox (what the
   report's ``cpu_time_ms`` gives) and the round trip [ms];
 - ``run --perceive --perception examples/perception_simple.py:perceive`` on the cluttered cell
-  for ``--cycles`` cycles: successes, the position error median / p95 / max [mm], the wall time.
+  for ``--cycles`` cycles (``--randomize``: targets of random size and place): successes, the
+  position error median / p95 / max [mm], the wall time.
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ def main() -> None:
     parser.add_argument("--looks", type=int, default=30)
     parser.add_argument("--cycles", type=int, default=10)
     parser.add_argument("--no-jail", action="store_true")
+    parser.add_argument("--randomize", action="store_true", help="randomise the run's targets")
     args = parser.parse_args()
     jail = not args.no_jail
     with tempfile.TemporaryDirectory() as tmp:
@@ -89,6 +92,7 @@ def main() -> None:
         report = run(
             args.cycles,
             cell=CLUTTERED,
+            randomize=args.randomize,
             perceive=True,
             perception=f"{EXAMPLE}:perceive",
             out=io.StringIO(),  # the per-cycle lines: not printed
@@ -97,7 +101,8 @@ def main() -> None:
     s = report.summary
     e = s["perception"]["position_error_mm"]
     print(
-        f"run --perceive --perception, cluttered, {args.cycles} cycles: "
+        f"run --perceive{' --randomize' * args.randomize} --perception, cluttered, "
+        f"{args.cycles} cycles: "
         f"{s['successes']}/{s['cycles']} picked, recognised {s['perception']['recognised']}, "
         f"error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm, "
         f"{wall:.1f} s wall"

@@ -8,9 +8,9 @@ nearest that kind's (chromaticity: colour divided by brightness, so the shelf's 
 matter) and whose depth lands inside the bay, takes the largest connected blob of them less its
 rim (where depth jumps to what lies behind), and for an upright cylinder fits a circle of the
 kind's radius to the blob's points seen from above: the centre of that circle is the can's axis,
-and its centre's height is half the kind's length above the bay's floor. The confidence is the
-share of the blob's expected size that was seen. It uses NumPy and SciPy only; see
-``examples/perception_template.py`` for the contract.
+and its centre's height is halfway between the bay's floor and the highest points seen. The
+confidence is the share of the blob's expected size that was seen. It uses NumPy and SciPy only;
+see ``examples/perception_template.py`` for the contract.
 """
 
 from __future__ import annotations
@@ -86,12 +86,18 @@ def _find(look: dict[str, Any], label: str, base: np.ndarray, inside: np.ndarray
     pts = base[blobs == best]
     floor = look["bay"]["center"][2] - look["bay"]["half"][2]
     if kind["shape"] == "cylinder":
-        radius, length = kind["size"]
+        radius = kind["size"][0]  # the kind's: a fitted radius is too noisy at 2.5 m
         camera = np.asarray(look["T_base_camera"])[:2, 3]
         mid = pts[:, :2].mean(axis=0)
         away = (mid - camera) / max(float(np.linalg.norm(mid - camera)), 1e-9)
         xy = _circle(pts[:, :2], radius, mid + 0.5 * radius * away)
-        centre = [float(xy[0]), float(xy[1]), floor + length / 2.0]
+        # the can's top: its lid seen from above, or its side's upper rim seen from below,
+        # less what the blob's erosion took off that rim [m]
+        eye = np.asarray(look["T_base_camera"])[:3, 3]
+        top = float(np.percentile(pts[:, 2], 99))
+        if eye[2] < top:
+            top += EDGE_PX * float(np.linalg.norm(pts.mean(axis=0) - eye)) / look["K"][1][1]
+        centre = [float(xy[0]), float(xy[1]), (floor + top) / 2.0]
     else:  # a box or a ball: the blob's middle, half its height up
         height = kind["size"][2] if kind["shape"] == "box" else 2.0 * kind["size"][0]
         mid = np.median(pts, axis=0)
