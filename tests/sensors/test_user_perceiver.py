@@ -35,6 +35,11 @@ def echo(look):  # what it was given, read back: the look crossed whole
 def reads(look):
     return [{{"label": open({secret!r}).read(), "position": [0, 0, 0]}}]
 
+def writes(look):  # its own file, to change what it is scored as
+    with open(__file__, "a") as f:
+        f.write("# CHANGED".lower())
+    return []
+
 def grader(look):
     from kr210_sim.robot.kinematics import nearest
     return []
@@ -112,8 +117,9 @@ def test_a_look_crosses_into_the_jail_whole(
     ("name", "reason"),
     [
         ("reads", "hostile.py:reads raised FileNotFoundError: [Errno 2] No such file"),
+        ("writes", "hostile.py:writes raised OSError: [Errno 30] Read-only file system"),
         ("grader", "hostile.py:grader raised ModuleNotFoundError: No module named "),
-        ("raises", "hostile.py:raises raised ValueError: no blue here (hostile.py line 19)"),
+        ("raises", "hostile.py:raises raised ValueError: no blue here (hostile.py line 24)"),
         ("sleeps", "hostile.py:sleeps: no answer within 2 s"),
         ("nan", "hostile.py:nan: entry 0's 'position' holds NaN or infinity: [nan, 0.0, 1.0]"),
         ("many", "hostile.py:many: returned 10,000,000 entries (at most 64)"),
@@ -130,6 +136,7 @@ def test_a_hostile_function_is_contained_and_named(
     assert p.reason.startswith(reason), p.reason
     assert "\n" not in p.reason and "Traceback" not in p.reason
     assert "the answers" not in p.reason  # the file outside was not there to read
+    assert "# changed" not in hostile.read_text()
     assert box._proc is None  # nothing left running
 
 
