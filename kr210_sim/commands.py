@@ -197,7 +197,8 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
     function = summary.get("perception", {}).get("function")
     if function is not None:
         out.write(
-            f"  perception {function['spec']}: {function['looks']} looks in "
+            f"  perception {function['spec']}: {function['looks']} "
+            f"look{'' if function['looks'] == 1 else 's'} in "
             f"{function['confinement']}, {len(function['faults'])} faults\n"
         )
     out.write(f"  report: {result.path}\n")

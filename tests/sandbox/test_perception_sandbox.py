@@ -118,3 +118,17 @@ def test_the_command_runs_a_users_perception_and_says_so(
     cycle = json.loads(report.read_text())["cycles"][0]
     assert cycle["reason"] == "not_seen"
     assert cycle["perception"]["reason"].startswith("not seen (blind.py:perceive returned")
+
+
+def test_no_jail_runs_it_unjailed_and_says_what_is_then_unprotected(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    from kr210_sim.cli import main
+
+    user = tmp_path / "blind.py"
+    user.write_text("def perceive(look):\n    return []\n")
+    argv = ["run", "--cycles", "1", "--perceive", "--perception", f"{user}:perceive", "--no-jail"]
+    assert main([*argv, "--slot", "8", "--report", str(tmp_path / "r.json")]) == 1
+    got = capsys.readouterr()
+    assert "--no-jail: your perception function's code runs as you" in got.err
+    assert f"perception {user}:perceive: 2 looks in none, 0 faults" in got.out
