@@ -149,7 +149,12 @@ def serve(argv: list[str]) -> int:
         message = receive(req, None)
         if not isinstance(message, dict):
             return 0
-        answer = reply(fn, read_look(req, message))
+        try:
+            look = read_look(req, message)
+        except ValueError as exc:  # the stream is out of step past it: say so and end
+            send(ans, {"n": message.get("n"), "object": "look", "why": f": {short(str(exc))}"})
+            return 1
+        answer = reply(fn, look)
         send(ans, {"n": message.get("n"), **answer, **_blocked(guard)})
         if "exit" in answer or "memory" in answer:
             code = answer.get("exit")

@@ -83,7 +83,7 @@ class PerceptionSandbox(IkSandbox):
 
         Args:
             items: The look's small items (plain JSON types).
-            arrays: Its images (C-contiguous copies of them are sent), each of a dtype of
+            arrays: Its images (sent C-contiguous, copied only when not), each of a dtype of
                 :data:`~kr210_sim.sandbox.perception_child.DTYPES`.
 
         Returns:
