@@ -175,6 +175,26 @@ class _LogLines:
 
 
 # -- functions -------------------------------------------------------------------------------
+def _perception(perceive: bool, spec: str | None, timeout: float | None) -> Any:
+    """The sandbox of ``run(perception=SPEC)`` (started; None without a SPEC).
+
+    Raises:
+        ConfigError: A SPEC without ``perceive``, or a timeout without a SPEC.
+        PerceptionSpecError: The SPEC names nothing loadable.
+    """
+    if spec is None:
+        if timeout is not None:
+            raise ConfigError("--perception-timeout needs --perception SPEC")
+        return None
+    if not isinstance(spec, str):
+        raise ConfigError(f"perception must be a SPEC string, got a {type(spec).__name__}")
+    if not perceive:
+        raise ConfigError("--perception needs --perceive (it replaces our perception)")
+    from kr210_sim.sandbox.perception_sandbox import DEFAULT_TIMEOUT, open_perception
+
+    return open_perception(spec, DEFAULT_TIMEOUT if timeout is None else timeout)
+
+
 def run(
     cycles: int = 10,
     seed: int = 0,
@@ -192,6 +212,8 @@ def run(
     record_rate: float = 30.0,
     render_workers: int | None = None,
     perceive: bool = False,
+    perception: str | None = None,
+    perception_timeout: float | None = None,
 ) -> RunReport:
     """Run and score pick-and-place cycles (``python -m kr210_sim run``).
 
@@ -215,6 +237,10 @@ def run(
         render_workers: Processes that render the video (default: one per core).
         perceive: Pick from what the cell's sensors see (the pipeline's estimate), not the
             simulator's pose; the truth only scores (each cycle's ``perception`` block).
+        perception: With ``perceive``, your perception function in place of our pipeline: a
+            SPEC (``"my_perception.py:perceive"``; the contract:
+            :mod:`kr210_sim.sandbox.user_perception`), run in a jail.
+        perception_timeout: Time the function may take per look [s] (default 10).
 
     Returns:
         The run's report; ``to_dict()`` is the JSON ``run --report`` writes.
@@ -223,6 +249,7 @@ def run(
         ConfigError: A bad argument or an output path that cannot be written (before any cycle
             runs).
         IkSpecError: ``ik`` names nothing loadable.
+        PerceptionSpecError: ``perception`` names nothing loadable.
         SceneError: The scene cannot be loaded.
         VideoFailedError: The video could not be made (the cycles ran, the report was written;
             it is the exception's ``report``).
@@ -247,6 +274,7 @@ def run(
     out = _stream(out, "out")
     progress = _stream(progress, "progress")
     user_ik = as_user_ik(ik)
+    sandbox = _perception(perceive, perception, perception_timeout)
     settings: VideoSettings | None
     if video is None or isinstance(video, VideoSettings):
         settings = video
@@ -265,6 +293,7 @@ def run(
         record=_path(record, "record"),
         record_rate=record_rate,
         render_workers=render_workers,
+        perception=sandbox,
     )
     result = RunReport(
         job.report,

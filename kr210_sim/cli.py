@@ -231,8 +231,27 @@ def _add_run(sub: _Commands) -> None:
         default=None,
         help="processes rendering the video (one per core; 1: render in this process)",
     )
-    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
+    _add_perception_options(cmd)
     cmd.set_defaults(func=commands.run)
+
+
+def _add_perception_options(cmd: argparse.ArgumentParser) -> None:
+    """``--perceive``, ``--perception SPEC`` and ``--perception-timeout S``."""
+    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
+    cmd.add_argument(
+        "--perception",
+        default=None,
+        metavar="SPEC",
+        help="with --perceive, your perception in place of ours, jailed: "
+        "package.module:function or path/to/file.py:function",
+    )
+    cmd.add_argument(
+        "--perception-timeout",
+        type=argtypes.seconds,
+        default=None,
+        metavar="S",
+        help="time --perception's function may take per look (10)",
+    )
 
 
 def _add_replay(sub: _Commands) -> None:
@@ -330,7 +349,7 @@ def _add_evaluate(sub: _Commands) -> None:
     )
     _add_seed_option(cmd, "the episode seeds")
     cmd.add_argument("--randomize", action="store_true", help="randomise each episode's target")
-    cmd.add_argument("--perceive", action="store_true", help="pick from what the sensors see")
+    _add_perception_options(cmd)
     _add_scene_option(cmd)
     _add_cell_option(cmd)
     _add_ik_options(

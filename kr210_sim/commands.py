@@ -36,14 +36,17 @@ def _no_jail(args: argparse.Namespace) -> None:
     """
     if not getattr(args, "no_jail", False):
         return
-    if args.ik_timeout is None:
+    if args.ik_timeout is None and getattr(args, "perception", None) is None:
         raise ConfigError(
             "--no-jail needs --ik-timeout S: without it your IK runs in this process, unjailed"
         )
     from kr210_sim.sandbox.jail import JAIL_ENV, unjailed_warning
 
     os.environ[JAIL_ENV] = "0"
-    sys.stderr.write(unjailed_warning("your IK's"))
+    if args.ik_timeout is not None:
+        sys.stderr.write(unjailed_warning("your IK's"))
+    if getattr(args, "perception", None) is not None:
+        sys.stderr.write(unjailed_warning("your perception function's"))
 
 
 def _load_ik(args: argparse.Namespace) -> Any:
@@ -61,6 +64,17 @@ def _load_ik(args: argparse.Namespace) -> Any:
 
     _no_jail(args)
     return load_user_ik(spec, timeout, root=None if root is None else spec_root(spec, root))
+
+
+def _perception(args: argparse.Namespace) -> None:
+    """Start ``--perception SPEC``'s process now (jailed unless ``--no-jail``), so a bad SPEC, or
+    no jail where one can be made, is a one-line error before anything runs (the run takes the
+    same process)."""
+    from kr210_sim.api import _perception as start
+
+    if args.perception is not None and args.ik is None:  # else _load_ik said it
+        _no_jail(args)
+    start(args.perceive, args.perception, args.perception_timeout)
 
 
 def _duration(seconds: float) -> str:
@@ -95,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:  # a bad SPEC is one line here, before anything runs
         ik = _load_ik(args)
+        _perception(args)
     except KeyboardInterrupt as exc:  # one the user's module raises (signals wait for the job)
         from kr210_sim.sim.runner import RunConfig
         from kr210_sim.sim.session import unstarted_report
@@ -137,6 +152,8 @@ def run(args: argparse.Namespace) -> int:
             record_rate=args.record_rate or DEFAULT_RECORD_RATE,
             render_workers=args.render_workers,
             perceive=args.perceive,
+            perception=args.perception,
+            perception_timeout=args.perception_timeout,
         )
     except RunInterrupted as exc:
         interrupted, result = exc, exc.report  # type: ignore[assignment]
@@ -179,6 +196,13 @@ def _print_run(result: RunReport, video: VideoSettings | None) -> None:
         branches = s.get("branches", {})
         if branches.get("other_branch"):
             out.write(f"  IK branches: {branches['note']}\n")
+    function = summary.get("perception", {}).get("function")
+    if function is not None:
+        out.write(
+            f"  perception {function['spec']}: {function['looks']} "
+            f"look{'' if function['looks'] == 1 else 's'} in "
+            f"{function['confinement']}, {len(function['faults'])} faults\n"
+        )
     out.write(f"  report: {result.path}\n")
     if result.record_path is not None and result.record_frames:
         size = result.record_path.stat().st_size / 1e6
@@ -329,7 +353,14 @@ def evaluate(args: argparse.Namespace) -> int:
         cell=args.cell,
         ik_timeout=args.ik_timeout,
         perceive=args.perceive,
+        perception=args.perception,
+        perception_timeout=args.perception_timeout,
     )
+    perceiving = config.perceiving
+    if isinstance(perceiving, tuple):  # a bad SPEC is one line here, before anything runs
+        from kr210_sim.sandbox.perception_sandbox import open_perception
+
+        open_perception(*perceiving)
     outcome = evaluate_job(config, args.report, args.resume, args.record_failures)
     report = outcome.report
     s = report["summary"]
@@ -356,8 +387,12 @@ def evaluate(args: argparse.Namespace) -> int:
     )
     if "perception" in s:
         p, e = s["perception"], s["perception"]["position_error_mm"]
-        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
-        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err if e else ''}\n")
+        err = (  # none when nothing was recognised
+            f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+            if e
+            else ""
+        )
+        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err}\n")
     out.write(
         f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"
@@ -373,7 +408,7 @@ def evaluate(args: argparse.Namespace) -> int:
             config.cell or config.scene,
             ik=args.ik,
             ik_timeout=args.ik_timeout,
-            perceive=config.perceive,
+            perceive=config.perceiving,
         )
         out.write(f"  failures recorded: {len(made)} in {args.record_failures}\n")
     if outcome.signal is not None:

@@ -61,6 +61,10 @@ class IkSpecError(ConfigError):
     function, not callable, or the module raised at import)."""
 
 
+class PerceptionSpecError(ConfigError):
+    """A ``--perception`` SPEC names no loadable function, or its process could not start."""
+
+
 class IkFailedError(PlanningError):
     """A user-supplied IK function gave no usable answer for a pose the plan needs (it raised,
     returned something that is not six finite angles, left the joint limits, missed the pose or

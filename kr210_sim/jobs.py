@@ -62,6 +62,7 @@ import mujoco  # isort: skip
 if TYPE_CHECKING:
     from kr210_sim.eval.evaluate import EvalConfig, EvalOutcome
     from kr210_sim.plan.cellcheck import CellCheck
+    from kr210_sim.sandbox.perception_sandbox import PerceptionSandbox
     from kr210_sim.view.live import LiveSettings
     from kr210_sim.view.studio import LiveViewer, ViewerSettings
 
@@ -179,6 +180,7 @@ def run_job(
     record: Path | None = None,
     record_rate: float = DEFAULT_RATE,
     render_workers: int | None = None,
+    perception: PerceptionSandbox | None = None,
 ) -> JobResult:
     """Run ``config.cycles`` cycles and write the report (and recording, video and plots).
 
@@ -197,6 +199,8 @@ def run_job(
         record_rate: Frames per simulated second of the recording [Hz].
         render_workers: Processes that render the video (default: one per core; 1 renders in
             this process).
+        perception: With ``config.perceive``, a user's perception function (started) in place
+            of our pipeline (``--perception SPEC``).
 
     Returns:
         The job's result; ``video_error`` is set (and the report still written) when the video
@@ -228,6 +232,10 @@ def run_job(
             from kr210_sim.sensors.perceiver import Perceiver
 
             perceiver = Perceiver
+            if perception is not None:
+                from kr210_sim.sensors.user_perceiver import user_perceiver
+
+                perceiver = user_perceiver(perception)  # type: ignore[assignment]
         keep = plots_dir is not None
         runner = Runner(config, model=model, keep_recordings=keep, ik=ik, perceiver=perceiver)
         geoms = runner.cell.handles.target_geoms
@@ -282,6 +290,8 @@ def run_job(
                 f"({signal_name(interrupted)}); writing the report of those\n"
             )
         report = runner_report(runner, end.wall_time, interrupted)
+        if perception is not None and "perception" in report["summary"]:
+            report["summary"]["perception"]["function"] = perception.summary()
         if report_path is not None:
             write_json_atomic(report_path, report)
         result = JobResult(

@@ -63,21 +63,37 @@ def load_pristine(scene: Path | str | None) -> mujoco.MjModel:
     return _PRISTINE[1]
 
 
-def perceiver_factory() -> PerceiverFactory:
-    """What makes the perceivers of this process's ``--perceive`` episodes."""
+#: How an episode perceives: False (the truth is told), True (our pipeline), or ``(SPEC,
+#: timeout [s])``: a user's perception function (``--perception``), in a jail per process.
+Perceive = bool | tuple[str, float]
+
+
+def perceiver_factory(perceive: Perceive = True) -> PerceiverFactory:
+    """What makes the perceivers of this process's ``--perceive`` episodes (with ``(SPEC,
+    timeout)``: the user's function's, its sandbox started once per process)."""
+    if isinstance(perceive, tuple):
+        from kr210_sim.sandbox.perception_sandbox import open_perception
+        from kr210_sim.sensors.user_perceiver import user_perceiver
+
+        return user_perceiver(open_perception(*perceive), _recogniser())
     return _perceiver
 
 
-def _perceiver(model: mujoco.MjModel, planner: Planner) -> Perceiver:
-    """A perceiver of ``model`` with this process's recogniser (loaded on first use)."""
+def _recogniser() -> RecognitionModel:
+    """This process's recogniser (loaded on first use)."""
     global _RECOGNISER
-    from kr210_sim.sensors.perceiver import Perceiver
-
     if _RECOGNISER is None:
         from kr210_sim.perception.model import load_model
 
         _RECOGNISER = load_model()
-    return Perceiver(model, planner, _RECOGNISER)
+    return _RECOGNISER
+
+
+def _perceiver(model: mujoco.MjModel, planner: Planner) -> Perceiver:
+    """A perceiver of ``model`` with this process's recogniser (loaded on first use)."""
+    from kr210_sim.sensors.perceiver import Perceiver
+
+    return Perceiver(model, planner, _recogniser())
 
 
 def run_episode(
@@ -86,7 +102,7 @@ def run_episode(
     scene: Path | str | None = None,
     ik: str | None = None,
     ik_timeout: float | None = None,
-    perceive: bool = False,
+    perceive: Perceive = False,
 ) -> CycleResult:
     """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
     SPEC ``ik`` (None: ours; loaded once per process; with ``ik_timeout`` [s] in a process of
@@ -102,7 +118,7 @@ def run_episode(
         randomize=randomize,
         model=load_pristine(scene),
         ik=user_ik,
-        perceiver=perceiver_factory() if perceive else None,
+        perceiver=perceiver_factory(perceive) if perceive else None,
     )
     try:
         return runner.run_cycle(1, runner.slot_for_cycle())
@@ -126,7 +142,7 @@ def record_of(
     scene: Path | str | None,
     ik: str | None = None,
     ik_timeout: float | None = None,
-    perceive: bool = False,
+    perceive: Perceive = False,
 ) -> dict[str, Any]:
     """Run episode ``index`` (seeded ``seed``) and return its record."""
     r = run_episode(seed, randomize, scene, ik, ik_timeout, perceive)
@@ -139,7 +155,7 @@ def run_chunk(
     scene: str | None,
     ik: str | None = None,
     ik_timeout: float | None = None,
-    perceive: bool = False,
+    perceive: Perceive = False,
 ) -> dict[str, Any]:
     """Run a chunk of episodes: the unit of work a backend ships to a worker.
 
@@ -149,7 +165,8 @@ def run_chunk(
         scene: MJCF scene path (must exist where this runs), or None for the committed scene.
         ik: SPEC of the user's IK (its file or module must exist where this runs), or None.
         ik_timeout: Time limit per call of that IK [s] (it then runs in a process of its own).
-        perceive: Pick from what the cell's sensors see (``--perceive``).
+        perceive: Pick from what the cell's sensors see (``--perceive``; with ``(SPEC,
+            timeout)`` by the user's function, ``--perception``).
 
     Returns:
         ``{"records": [record, ...], "versions": {...}}``: the records in ``jobs`` order and the

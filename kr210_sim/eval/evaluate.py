@@ -90,6 +90,9 @@ class EvalConfig:
             episode ``ik_failed``. None: no limit, imported into each worker.
         perceive: Pick every episode from what the cell's sensors see (``--perceive``): the
             records get ``perception`` and the summary its block.
+        perception: With ``perceive``, the SPEC of a user's perception function in place of our
+            pipeline (``--perception``): in a jail per worker process.
+        perception_timeout: Time that function may take per look [s] (None: 10 s).
     """
 
     episodes: int = 100
@@ -103,6 +106,8 @@ class EvalConfig:
     cell: Path | None = None
     ik_timeout: float | None = None
     perceive: bool = False
+    perception: str | None = None
+    perception_timeout: float | None = None
 
     def __post_init__(self) -> None:
         if self.scene is not None and self.cell is not None:
@@ -129,6 +134,22 @@ class EvalConfig:
             raise ConfigError("--ik-timeout needs --ik SPEC and a time > 0 s")
         if self.address is not None and self.backend != "ray":
             raise ConfigError("--address needs --backend ray")
+        if self.perception_timeout is not None and (
+            self.perception is None or not self.perception_timeout > 0
+        ):
+            raise ConfigError("--perception-timeout needs --perception SPEC and a time > 0 s")
+        if self.perception is not None and not self.perceive:
+            raise ConfigError("--perception needs --perceive (it replaces our perception)")
+
+    @property
+    def perceiving(self) -> bool | tuple[str, float]:
+        """How episodes perceive (:data:`kr210_sim.eval.episode.Perceive`)."""
+        if self.perception is None:
+            return self.perceive
+        from kr210_sim.sandbox.perception_sandbox import DEFAULT_TIMEOUT
+
+        timeout = self.perception_timeout
+        return (self.perception, DEFAULT_TIMEOUT if timeout is None else timeout)
 
 
 @dataclass(frozen=True, slots=True)
@@ -264,12 +285,11 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
     same file by another path is the same cell, an edited one is another), the IK's function
     and file content, and the library versions."""
     from kr210_sim.cell.load import model_for, model_identity
+    from kr210_sim.sandbox.user_ik import ik_identity
     from kr210_sim.util.versions import versions
 
     ik: dict[str, Any] = {}
     if config.ik is not None:
-        from kr210_sim.sandbox.user_ik import ik_identity
-
         ik = {"ik": ik_identity(config.ik)}
     return {
         "seed": config.seed,
@@ -278,8 +298,18 @@ def _identity(config: EvalConfig) -> dict[str, Any]:
         **ik,
         **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
         **({"perceive": True} if config.perceive else {}),
+        **({"perception": ik_identity(config.perception)} if config.perception else {}),
         "versions": versions(),
     }
+
+
+def _perception_config(config: EvalConfig) -> dict[str, Any]:
+    """The report's ``perception`` and ``perception_timeout_s`` (``--perception``; none without
+    it)."""
+    perceiving = config.perceiving
+    if not isinstance(perceiving, tuple):
+        return {}
+    return {"perception": perceiving[0], "perception_timeout_s": perceiving[1]}
 
 
 def _check_outputs(config: EvalConfig, report: Path) -> None:
@@ -376,7 +406,7 @@ def evaluate(
             todo,
             config.ik,
             config.ik_timeout,
-            config.perceive,
+            config.perceiving,
         )
     else:
         backend = LocalBackend(
@@ -385,7 +415,7 @@ def evaluate(
             _source(config),
             config.ik,
             config.ik_timeout,
-            config.perceive,
+            config.perceiving,
         )
 
     caught: int | None = None
@@ -474,10 +504,17 @@ def _report(
             **({"ik": config.ik} if config.ik is not None else {}),
             **({"ik_timeout_s": config.ik_timeout} if config.ik_timeout is not None else {}),
             **({"perceive": True} if config.perceive else {}),
+            **_perception_config(config),
             "randomization": _randomization(config),
             "replay": "python -m kr210_sim run --cycles 1 --seed <episode seed>"
             + (" --randomize" if config.randomize else "")
             + (" --perceive" if config.perceive else "")
+            + (f" --perception {config.perception}" if config.perception else "")
+            + (
+                f" --perception-timeout {config.perception_timeout:g}"
+                if config.perception_timeout is not None
+                else ""
+            )
             + (f" --ik {config.ik}" if config.ik is not None else "")
             + (f" --ik-timeout {config.ik_timeout:g}" if config.ik_timeout is not None else "")
             + (f" --scene {config.scene}" if config.scene else "")

@@ -25,6 +25,7 @@ from kr210_sim.media.recording import (
 import mujoco  # isort: skip
 
 if TYPE_CHECKING:
+    from kr210_sim.eval.episode import Perceive
     from kr210_sim.sandbox.user_ik import UserIk
 
 
@@ -51,7 +52,7 @@ def record_episode(
     rate: float = DEFAULT_RATE,
     model: mujoco.MjModel | None = None,
     ik: UserIk | None = None,
-    perceive: bool = False,
+    perceive: Perceive = False,
 ) -> EpisodeRecording:
     """Re-run one evaluation episode and write its recording to ``<out_dir>/<seed>_<reason>.npz``.
 
@@ -87,7 +88,7 @@ def record_episode(
     identity = model_identity(pristine)
     from kr210_sim.eval.episode import perceiver_factory
 
-    factory = perceiver_factory() if perceive else None
+    factory = perceiver_factory(perceive) if perceive else None
     runner = episode_runner(seed, randomize=randomize, model=pristine, ik=ik, perceiver=factory)
     config = runner.config
     recorder = StateRecorder(
@@ -114,7 +115,7 @@ def record_failures(
     rate: float = DEFAULT_RATE,
     ik: str | None = None,
     ik_timeout: float | None = None,
-    perceive: bool = False,
+    perceive: Perceive = False,
 ) -> list[EpisodeRecording]:
     """Record every failed episode of an evaluation (``evaluate --record-failures DIR``).
 

@@ -46,7 +46,7 @@ def _worker_main(
     scene: str | None,
     ik: str | None,
     ik_timeout: float | None = None,
-    perceive: bool = False,
+    perceive: episode.Perceive = False,
 ) -> None:
     """A worker process: run the episodes the driver sends, reply with their records."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -93,7 +93,7 @@ class LocalBackend:
         scene: Path | None,
         ik: str | None = None,
         ik_timeout: float | None = None,
-        perceive: bool = False,
+        perceive: episode.Perceive = False,
     ) -> None:
         self.workers = workers
         self.perceive = perceive

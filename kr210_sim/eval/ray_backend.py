@@ -76,7 +76,7 @@ class RayBackend:
         episodes: int,
         ik: str | None = None,
         ik_timeout: float | None = None,
-        perceive: bool = False,
+        perceive: episode.Perceive = False,
     ) -> None:
         self.workers = workers or 0
         self.perceive = perceive

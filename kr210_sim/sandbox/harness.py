@@ -40,7 +40,9 @@ MODULES = (
     "sandbox/harness.py",
     "sandbox/ik_child.py",
     "sandbox/ik_wire.py",
+    "sandbox/perception_child.py",
     "sandbox/user_ik.py",
+    "sandbox/user_perception.py",
 )
 #: The folders of kr210_sim a jail holds whole (the exercise's ROS form and its shims).
 FOLDERS = ("exercise",)

@@ -187,6 +187,9 @@ class IkSandbox:
             folder); None: the SPEC's (:func:`~kr210_sim.sandbox.user_ik.spec_files`).
     """
 
+    #: The module the user's process runs, and what messages call that process.
+    child, what = CHILD_MODULE, "IK"
+
     def __init__(
         self,
         spec: str,
@@ -268,7 +271,7 @@ class IkSandbox:
             "harness": self._harness_only(),
         }
         parent = 0 if self.confinement.own_pids else os.getpid()
-        argv: tuple[str, ...] = (sys.executable, "-B", "-m", CHILD_MODULE, self._child_spec())
+        argv: tuple[str, ...] = (sys.executable, "-B", "-m", self.child, self._child_spec())
         argv += (str(req_r), str(ans_w), str(parent), json.dumps(limits))
         return Launch(
             argv=argv,
@@ -393,7 +396,7 @@ class IkSandbox:
         elif message is not None and message.get("memory"):
             what = f"ran out of memory {when} (limit {self.limits.memory_mb} MB)"
         else:
-            what = f"the IK process {_how_it_ended(code)} {when}"
+            what = f"the {self.what} process {_how_it_ended(code)} {when}"
             if code == -signal.SIGXCPU:
                 what += f" (its CPU time ran out: limit {self.limits.cpu_s:g} s)"
             elif code == -signal.SIGKILL:
@@ -402,6 +405,10 @@ class IkSandbox:
         self._fault("crashed", what)
 
     # ------------------------------------------------------------------ calls
+    def _send(self, fd: int, message: dict[str, Any], until: float | None) -> None:
+        """Write a request (a subclass may follow it with raw bytes)."""
+        send(fd, message, until)
+
     def _request(self, message: dict[str, Any], limit: float | None) -> dict[str, Any] | Oversized:
         """Send one request (numbered) and wait ``limit`` [s] for its answer; a fault raises
         (:meth:`_fault`, :meth:`_died`)."""
@@ -427,7 +434,7 @@ class IkSandbox:
         """Send the request and read its answer (see :meth:`_request`)."""
         req_w, ans_r = self._fds
         try:
-            send(req_w, {"n": self.calls, **message}, until)
+            self._send(req_w, {"n": self.calls, **message}, until)
         except TimeoutError:
             self._fault(
                 "timeout", f"did not read its request within {_seconds(self._limit(limit))}"

@@ -236,8 +236,12 @@ def summary_table(summary: dict[str, Any]) -> str:
         )
     if "perception" in summary:
         p, e = summary["perception"], summary["perception"]["position_error_mm"]
-        err = f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
-        rows.append(("recognised", f"{p['recognised']}/{p['cycles']}{err if e else ''}"))
+        err = (  # none when nothing was recognised
+            f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+            if e
+            else ""
+        )
+        rows.append(("recognised", f"{p['recognised']}/{p['cycles']}{err}"))
     if "wall_time_s" in summary:
         wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
         factor = f"{rtf:.0f}" if rtf >= 10 else f"{rtf:.2g}"  # never "0x" for a slow run

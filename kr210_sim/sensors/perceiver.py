@@ -59,6 +59,9 @@ class Perceiver:
             one on the gripper).
         planner: Plans the move to the wrist look.
         recogniser: The recognition model (default: the shipped one).
+        estimator: What makes a percept of the looks, called as
+            :func:`~kr210_sim.perception.pipeline.perceive` (default: that, our pipeline; a
+            user's function: :class:`~kr210_sim.sensors.user_perceiver.UserPerception`).
 
     Raises:
         ConfigError: When the cell has no sensors, or no fixed one.
@@ -69,8 +72,10 @@ class Perceiver:
         model: mujoco.MjModel,
         planner: Planner,
         recogniser: RecognitionModel | None = None,
+        estimator: Callable[..., Percept] | None = None,
     ) -> None:
         self.model, self.planner = model, planner
+        self.estimator = estimator or perceive
         self.layout = CellLayout.from_model(model)
         self.rig = SensorRig(model)
         fixed = [s.name for s in self.rig.sensors.values() if s.mount == "world"]
@@ -128,7 +133,7 @@ class Perceiver:
         t0 = time.perf_counter()
         looks: list[Observation] = [self.rig.look(cell.data, self.fixed)]
         wall += time.perf_counter() - t0
-        p = perceive(looks, label, box, self.recogniser, seed)
+        p = self.estimator(looks, label, box, self.recogniser, seed)
         cpu = p.cpu_time
         if not (p.seen and p.confident) and self.wrist is not None:
             where = (
@@ -140,7 +145,7 @@ class Perceiver:
                 t0 = time.perf_counter()
                 looks.append(self.rig.look(cell.data, self.wrist))
                 wall += time.perf_counter() - t0
-                p = perceive(looks, label, box, self.recogniser, seed)
+                p = self.estimator(looks, label, box, self.recogniser, seed)
                 cpu += p.cpu_time
         self.record = self._score(cell, k, label, p, len(looks), cpu, wall)
         self.observations, self.percept = tuple(looks), p

@@ -192,3 +192,28 @@ def test_a_perceived_evaluation_on_the_cluster_is_the_local_one(
     p = out.report["summary"]["perception"]
     assert p["episodes"] == 4 and p["position_error_mm"] is not None
     assert out.report["wall_execution"]["nodes"] == 2
+
+
+def test_a_users_perception_on_the_cluster_is_the_local_one(cluster: Any, tmp_path: Path) -> None:
+    """`evaluate --perceive --perception SPEC --backend ray`: each Ray worker starts the user's
+    function in a jail of its own and picks from it as a local worker does."""
+    from kr210_sim.cell.toml import PUBLISHED_CELL
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "perception_simple.py"
+    config = {
+        "episodes": 2,
+        "seed": 3,
+        "perceive": True,
+        "perception": f"{example}:perceive",
+        "cell": PUBLISHED_CELL.parent / "cluttered.toml",
+    }
+    (tmp_path / "local").mkdir(), (tmp_path / "ray").mkdir()
+    evaluate(EvalConfig(**config, workers=1), report=tmp_path / "local" / "e.json")
+    out = evaluate(
+        EvalConfig(**config, backend="ray", address=cluster.address),
+        report=tmp_path / "ray" / "e.json",
+    )
+    assert _text(tmp_path / "ray" / "e.json") == _text(tmp_path / "local" / "e.json")
+    assert out.report["summary"]["successes"] == 2
+    assert out.report["summary"]["perception"]["recognised"] == 2
+    assert out.report["config"]["perception"] == f"{example}:perceive"

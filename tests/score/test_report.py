@@ -53,3 +53,14 @@ def test_strip_wall_drops_exactly_the_measured_fields() -> None:
         "cycles": [{"x": 2, "time": 3.0}],
         "sim_time": 4.0,
     }
+
+
+def test_the_table_of_a_run_that_recognised_nothing() -> None:
+    """No cycle recognised: no position errors to give, and the table says 0/n (it raised a
+    TypeError on None)."""
+    from kr210_sim.score.report import summary_table
+
+    summary = summarise([])
+    summary["perception"] = {"recognised": 0, "cycles": 2, "position_error_mm": None}
+    table = summary_table(summary)
+    assert "recognised" in table and "0/2\n" in table + "\n" and "error median" not in table

@@ -1,0 +1,171 @@
+"""A user's perception in place of ours (``run --perceive --perception SPEC``).
+
+:class:`UserPerception` is called as :func:`kr210_sim.perception.pipeline.perceive` is (the
+looks so far, the label to pick, the bay, the recogniser, a seed) and returns the same
+:class:`~kr210_sim.perception.pipeline.Percept`, so the
+:class:`~kr210_sim.sensors.perceiver.Perceiver` takes its second look, plans and scores against
+the truth as it does with ours. Each look is handed to the user's function once, in its sandbox
+(:class:`~kr210_sim.sandbox.perception_sandbox.PerceptionSandbox`), with the contract of
+:mod:`kr210_sim.sandbox.user_perception`; its answer is checked there. Whatever goes wrong in the
+user's function (an exception, no answer in time, a crash, an answer not as the contract says)
+is the look's problem, one line naming the function, and the target is then not seen: never a
+pose.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kr210_sim.cell.sensing_layout import pick_list_of
+from kr210_sim.perception.camera import Observation
+from kr210_sim.perception.cloud import BayBox
+from kr210_sim.perception.kinds import Detection, Pose
+from kr210_sim.perception.model import RecognitionModel
+from kr210_sim.perception.pipeline import CONFIDENT, Look, Percept
+from kr210_sim.plan.planner import Planner
+from kr210_sim.sandbox.ik_sandbox import IkCrashed, IkTimeout
+from kr210_sim.sandbox.ik_wire import Oversized
+from kr210_sim.sandbox.perception_sandbox import PerceptionSandbox
+from kr210_sim.sandbox.user_perception import Estimate, UnusableAnswer, read_answer, spec_name
+from kr210_sim.sensors.perceiver import Perceiver
+from kr210_sim.sim.perceived import PerceiverFactory
+
+import mujoco  # isort: skip
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _frame(axis: FloatArray) -> FloatArray:
+    """A rotation whose z column is ``axis`` (unit)."""
+    z = axis / np.linalg.norm(axis)
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[0]) > 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(z, x), z))
+
+
+def look_items(
+    obs: Observation, pick: str, pick_list: Sequence[str], bay: BayBox, model: RecognitionModel
+) -> dict[str, Any]:
+    """A look's small items as the user's function gets them (the contract's keys but the
+    images)."""
+    return {
+        "sensor": obs.sensor,
+        "time": float(obs.time),
+        "K": np.asarray(obs.intrinsics.K, dtype=np.float64).tolist(),
+        "T_base_camera": np.asarray(obs.T_base_camera, dtype=np.float64).tolist(),
+        "pick": pick,
+        "pick_list": list(pick_list),
+        "kinds": {
+            k.name: {"shape": k.shape, "size": list(k.size), "rgb": list(k.rgb)}
+            for k in model.kinds
+        },
+        "bay": {"center": list(bay.centre), "yaw": bay.yaw, "half": list(bay.half)},
+    }
+
+
+class UserPerception:
+    """A user's perception function, called as the pipeline's :func:`~kr210_sim.perception.
+    pipeline.perceive` is.
+
+    Args:
+        sandbox: The user's function in its process (started).
+        pick_list: The cell's pick list (what the function is told besides the cycle's pick).
+    """
+
+    def __init__(self, sandbox: PerceptionSandbox, pick_list: Sequence[str]) -> None:
+        self.sandbox = sandbox
+        self.pick_list = tuple(pick_list)
+        #: How messages name the user's function (``file.py:function``).
+        self.name = spec_name(sandbox.spec)
+        self._seen: list[tuple[Observation, Look, float]] = []
+
+    def _call(
+        self, obs: Observation, pick: str, bay: BayBox, model: RecognitionModel
+    ) -> tuple[Look, float]:
+        """One look through the user's function: its detections, or the one-line problem."""
+        items = look_items(obs, pick, self.pick_list, bay, model)
+        cpu, problems, found = 0.0, [], []
+        try:
+            got = self.sandbox.look(items, {"rgb": obs.rgb, "depth": obs.depth})
+            if isinstance(got, Oversized):
+                raise UnusableAnswer(f"sent an answer of {got.size:,} bytes")
+            c = got.get("cpu")
+            cpu = float(c) if isinstance(c, float) and 0.0 <= c < 1e6 else 0.0
+            found = read_answer(got)
+        except (IkTimeout, IkCrashed, UnusableAnswer) as exc:
+            problems.append(f"{self.name}: {exc}")
+        except Exception as exc:  # what the user's function raised, by its type's name
+            problems.append(f"{self.name} raised {type(exc).__name__}: {exc}")
+        detections = tuple(self._detection(e, model) for e in found)
+        empty = np.zeros((0, 3))
+        look = Look(obs.sensor, detections, tuple(problems), {"user": cpu}, empty, np.zeros(0, int))
+        return look, cpu
+
+    @staticmethod
+    def _detection(e: Estimate, model: RecognitionModel) -> Detection:
+        """An estimate as the pipeline's detection (the kind's nominal size and shape)."""
+        try:
+            kind = model.kind(e.label)
+            shape, size = kind.shape, kind.size
+        except KeyError:
+            shape, size = "cylinder", (0.0, 0.0)
+        position, axis = np.array(e.position), np.array(e.axis)
+        pose = Pose(position, axis, _frame(axis), size, 0.0)
+        return Detection(e.label, e.confidence, shape, pose, 0, position, (), measured=False)
+
+    def __call__(
+        self,
+        observations: Sequence[Observation],
+        pick_label: str,
+        bay: BayBox,
+        model: RecognitionModel,
+        seed: int = 0,
+    ) -> Percept:
+        """The target among the user's answers to ``observations`` (each look asked once a
+        cycle): the entry labelled ``pick_label`` that is confident, then from the latest look,
+        then the most confident. ``seed`` is not used (the user's function has its own)."""
+        seen, cpu = [], 0.0  # the CPU time of the looks asked now (the perceiver adds them)
+        for obs in observations:
+            done = next((s for s in self._seen if s[0] is obs), None)
+            if done is None:
+                done = (obs, *self._call(obs, pick_label, bay, model))
+                cpu += done[2]
+            seen.append(done)
+        self._seen = seen
+        looks = tuple(look for _, look, _ in seen)
+        best: tuple[tuple[bool, int, float], Detection] | None = None
+        for i, look in enumerate(looks):
+            for d in look.detections:
+                key = (d.confidence >= CONFIDENT, i, d.confidence)
+                if d.label == pick_label and (best is None or key > best[0]):
+                    best = (key, d)
+        problems = [p for look in looks for p in look.problems]
+        if best is None:
+            said = ", ".join(
+                f"{look.sensor}: " + (", ".join(d.label for d in look.detections) or "nothing")
+                for look in looks
+            )
+            why = "; ".join(problems) if problems else f"not seen ({self.name} returned {said})"
+            return Percept(pick_label, None, None, False, why, looks, cpu)
+        target = best[1]
+        confident = target.confidence >= CONFIDENT
+        why = "" if confident else f"{self.name}: confidence {target.confidence:.2f} only"
+        return Percept(pick_label, target, None, confident, why, looks, cpu)
+
+
+def user_perceiver(
+    sandbox: PerceptionSandbox, recogniser: RecognitionModel | None = None
+) -> PerceiverFactory:
+    """What makes the perceiver of ``run --perceive --perception SPEC``: ours, with the user's
+    function (in ``sandbox``) in place of our pipeline (``recogniser``: the kinds it is told,
+    default the shipped model's)."""
+
+    def make(model: mujoco.MjModel, planner: Planner) -> Perceiver:
+        estimator = UserPerception(sandbox, pick_list_of(model))
+        return Perceiver(model, planner, recogniser, estimator=estimator)
+
+    return make
