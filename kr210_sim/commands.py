@@ -59,7 +59,7 @@ def _load_ik(args: argparse.Namespace) -> Any:
             given = "--ik-timeout" if timeout is not None else "--ik-root"
             raise ConfigError(f"{given} needs --ik SPEC")
         return None
-    from kr210_sim.sandbox.ik_sandbox import load_user_ik
+    from kr210_sim.sandbox.guarded import load_user_ik
     from kr210_sim.sandbox.user_ik import spec_root
 
     _no_jail(args)

@@ -400,7 +400,7 @@ def evaluate_job(
     from kr210_sim.eval.evaluate import evaluate
 
     if config.ik is not None:  # with --ik-timeout, in a process of its own
-        from kr210_sim.sandbox.ik_sandbox import load_user_ik
+        from kr210_sim.sandbox.guarded import load_user_ik
 
         load_user_ik(config.ik, config.ik_timeout)
     if config.backend == "ray":

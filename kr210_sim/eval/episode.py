@@ -106,11 +106,11 @@ def run_episode(
 ) -> CycleResult:
     """One episode on a fresh copy of this process's model of ``scene``, planned with the IK of
     SPEC ``ik`` (None: ours; loaded once per process; with ``ik_timeout`` [s] in a process of
-    its own, :func:`~kr210_sim.sandbox.ik_sandbox.load_user_ik`), from what the sensors saw
+    its own, :func:`~kr210_sim.sandbox.guarded.load_user_ik`), from what the sensors saw
     when ``perceive``."""
     user_ik = None
     if ik is not None:
-        from kr210_sim.sandbox.ik_sandbox import load_user_ik
+        from kr210_sim.sandbox.guarded import load_user_ik
 
         user_ik = load_user_ik(ik, ik_timeout)
     runner = episode_runner(

@@ -142,7 +142,7 @@ def record_failures(
     pristine = model_at(scene)
     user_ik = None
     if ik is not None:
-        from kr210_sim.sandbox.ik_sandbox import load_user_ik
+        from kr210_sim.sandbox.guarded import load_user_ik
 
         user_ik = load_user_ik(ik, ik_timeout)
     return [

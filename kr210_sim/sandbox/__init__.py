@@ -4,8 +4,11 @@ A user's IK (a plain Python function or the original exercise's ``IK_server.py``
 the grader's process. :mod:`~kr210_sim.sandbox.user_ik` names what to load
 (:func:`~kr210_sim.sandbox.user_ik.load_ik`); :mod:`~kr210_sim.sandbox.ik_sandbox` starts it in a
 child process (:mod:`~kr210_sim.sandbox.ik_child`) and talks to it over a pipe
-(:mod:`~kr210_sim.sandbox.ik_wire`), with a budget per call; :mod:`~kr210_sim.sandbox.ik_guard`
-checks every answer. Where the child runs confined, the jail is built by
+(:mod:`~kr210_sim.sandbox.ik_wire`), with a budget per call; :mod:`~kr210_sim.sandbox.guarded`
+loads the IK a command asks for, once per process; :mod:`~kr210_sim.sandbox.ik_guard` checks
+every answer. A user's perception function runs the same way
+(:mod:`~kr210_sim.sandbox.user_perception`, :mod:`~kr210_sim.sandbox.perception_sandbox`,
+:mod:`~kr210_sim.sandbox.perception_child`). Where the child runs confined, the jail is built by
 :mod:`~kr210_sim.sandbox.jail` from bubblewrap (:mod:`~kr210_sim.sandbox.bwrap`), a seccomp
 filter (:mod:`~kr210_sim.sandbox.seccomp`), cgroup limits (:mod:`~kr210_sim.sandbox.cgroups`),
 the in-child confinement (:mod:`~kr210_sim.sandbox.confine`) and ``/proc`` reading

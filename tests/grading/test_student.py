@@ -30,7 +30,8 @@ from kr210_sim.grading.student import (
     video_name,
 )
 from kr210_sim.robot import kinematics
-from kr210_sim.sandbox.ik_sandbox import SandboxStop, load_user_ik
+from kr210_sim.sandbox.guarded import load_user_ik
+from kr210_sim.sandbox.ik_sandbox import SandboxStop
 from kr210_sim.sandbox.user_ik import spec_root
 
 ROOT = Path(__file__).resolve().parents[2]

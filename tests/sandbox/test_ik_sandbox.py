@@ -293,7 +293,7 @@ def _hangs_once(folder: Path) -> str:
 
 
 def test_load_user_ik_runs_it_apart_once_per_spec_and_limit(tmp_path: Path) -> None:
-    from kr210_sim.sandbox.ik_sandbox import load_user_ik
+    from kr210_sim.sandbox.guarded import load_user_ik
 
     spec = f"{EXAMPLE}:solve"
     assert load_user_ik(spec) is load_ik(spec)  # no limit: imported here

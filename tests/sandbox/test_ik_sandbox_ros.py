@@ -12,8 +12,9 @@ import pytest
 import ros_class
 
 from kr210_sim.robot import kinematics
+from kr210_sim.sandbox.guarded import load_user_ik
 from kr210_sim.sandbox.ik_guard import assess
-from kr210_sim.sandbox.ik_sandbox import IkSandbox, Limits, SandboxStop, load_user_ik
+from kr210_sim.sandbox.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.sandbox.user_ik import load_ik
 
 KIN = kinematics.committed()

@@ -537,7 +537,7 @@ def test_no_jail_grades_unjailed_and_says_what_is_not_protected(
 
 
 def test_ik_timeout_runs_are_jailed_by_default(tmp_path: Path, jail_ok: None) -> None:
-    from kr210_sim.sandbox.ik_sandbox import load_user_ik
+    from kr210_sim.sandbox.guarded import load_user_ik
 
     spec = f"{EXAMPLE}:solve"
     jailed = load_user_ik(spec, 2.5)
