@@ -228,6 +228,7 @@ def run_job(
             assert model is not None
             refuse_unservable(model)
         perceiver = None
+        since = (0, 0) if perception is None else perception.mark()
         if config.perceive:  # renders the cell's sensors: imported only for --perceive
             from kr210_sim.sensors.perceiver import Perceiver
 
@@ -291,7 +292,7 @@ def run_job(
             )
         report = runner_report(runner, end.wall_time, interrupted)
         if perception is not None and "perception" in report["summary"]:
-            report["summary"]["perception"]["function"] = perception.summary()
+            report["summary"]["perception"]["function"] = perception.summary(since)
         if report_path is not None:
             write_json_atomic(report_path, report)
         result = JobResult(

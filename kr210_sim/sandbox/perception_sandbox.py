@@ -112,15 +112,21 @@ class PerceptionSandbox(IkSandbox):
             self._arrays = ()
         return got
 
-    def summary(self) -> dict[str, Any]:
+    def mark(self) -> tuple[int, int]:
+        """Where a run starts: the looks asked and the faults so far (the process, and so its
+        counts, outlive a run: one per SPEC in a process, see :func:`open_perception`)."""
+        return self.calls, len(self.faults)
+
+    def summary(self, since: tuple[int, int] = (0, 0)) -> dict[str, Any]:
         """The report's ``summary.perception.function``: the SPEC, what confined it, the looks
-        it was asked and the faults (no answer in time, a crash; the first few)."""
+        it was asked and the faults (no answer in time, a crash; the first few), since
+        ``since`` (a :meth:`mark`)."""
         return {
             "spec": self.spec,
             **self.confinement.describe(),
-            "looks": self.calls,
+            "looks": self.calls - since[0],
             "timeout_s": self.limits.call_timeout,
-            "faults": self.faults[:10],
+            "faults": self.faults[since[1] :][:10],
         }
 
 

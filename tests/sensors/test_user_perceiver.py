@@ -166,6 +166,8 @@ def test_the_example_picks_from_what_it_saw_in_the_jail(tmp_path: Path, jail_ok:
     function = data["summary"]["perception"]["function"]
     assert function["confinement"] == "bwrap" and function["looks"] == 2
     assert function["faults"] == []
+    again = _run(f"{EXAMPLE}:perceive", tmp_path, 1)  # the same process serves the next run
+    assert again["summary"]["perception"]["function"]["looks"] == 1  # its looks, not 3
     for cycle in data["cycles"]:
         p = cycle["perception"]
         assert p["seen"] and p["right_object"] and p["label_seen"] == p["label"]
