@@ -8,6 +8,7 @@ Run: ``python benchmarks/perception_episodes.py [--episodes N] [--workers W] [--
 - recognition % (the target seen and the estimate on it);
 - the cylinder (target) position error, median / p95 / max [mm], at the cell's default noise;
 - the pipeline's CPU time per look'd episode (mean / max) [ms];
+- the cycle time (simulated, the wrist camera's second looks included), mean / p50 / p95 [s];
 - the wall time per episode (the evaluation's wall time over its episodes, start-up included,
   and the same times the workers: the time one episode takes a worker).
 
@@ -71,6 +72,11 @@ def main() -> None:
         )
     cpu = p["cpu_time_ms"]
     print(f"pipeline CPU per episode  mean {cpu['mean']:.0f} ms, max {cpu['max']:.0f} ms")
+    ct = s["cycle_time"]
+    print(
+        f"cycle time      mean {ct['mean']:.2f} s, p50 {ct['p50']:.2f} s, p95 {ct['p95']:.2f} s "
+        "(simulated; second looks included)"
+    )
     wall = ex["wall_time_s"]
     print(
         f"wall time       {wall:.0f} s: {wall / n:.2f} s an episode, "

@@ -3,11 +3,13 @@ what the cell's sensors saw, not from the simulator's pose; the truth only score
 
 Per cycle (:meth:`Perceiver.look`): the fixed shelf sensor looks at the slot's bay and the
 pipeline (:func:`~kr210_sim.perception.pipeline.perceive`) estimates the pick kind's pose. When
-the target is not seen, or not with confidence, the arm carries the wrist camera to a second look
-(:func:`~kr210_sim.sensors.looks.wrist_look_q`, at the estimate or, unseen, at the slot) and the
-pipeline takes both looks. Still unseen: :class:`~kr210_sim.errors.NotSeenError` (scored
-``not_seen`` before the pick). After the look the truth (:func:`~kr210_sim.sensors.shelf_truth`)
-is read, for the report only: whether the estimate lies on the target, and how far off it is.
+the target is not seen, or not with confidence, or a cylinder's radius was not measured (a far
+look's is not: :attr:`~kr210_sim.perception.pipeline.Percept.precise`), the arm carries the wrist
+camera to a second look (:func:`~kr210_sim.sensors.looks.wrist_look_q`, at the estimate or,
+unseen, at the slot) and the pipeline takes both looks. Still unseen:
+:class:`~kr210_sim.errors.NotSeenError` (scored ``not_seen`` before the pick). After the look the
+truth (:func:`~kr210_sim.sensors.shelf_truth`) is read, for the report only: whether the
+estimate lies on the target, and how far off it is.
 """
 
 from __future__ import annotations
@@ -135,7 +137,7 @@ class Perceiver:
         wall += time.perf_counter() - t0
         p = self.estimator(looks, label, box, self.recogniser, seed)
         cpu = p.cpu_time
-        if not (p.seen and p.confident) and self.wrist is not None:
+        if not (p.seen and p.confident and p.precise) and self.wrist is not None:
             where = (
                 p.target.pose.position
                 if p.target is not None and p.target.pose is not None

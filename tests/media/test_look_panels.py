@@ -51,10 +51,14 @@ def test_each_look_is_a_row_of_three_panels_of_the_sensors_size(drawn: Any) -> N
 
 def test_each_cluster_is_labelled_on_its_object(drawn: Any) -> None:
     g, labels, png = drawn
-    obs, look = g.observations[0], g.percept.looks[0]
-    assert [lab.detection for lab in labels] == list(range(len(look.detections))) and labels
+    for row, seen in enumerate(g.percept.looks):  # every look's clusters, in order
+        assert [lab.detection for lab in labels if lab.look == row] == list(
+            range(len(seen.detections))
+        )
     picked = [lab for lab in labels if lab.text.endswith("[pick]")]
     assert len(picked) == 1 and picked[0].text.startswith(g.label)
+    row = picked[0].look  # the look the pick was fitted from (the wrist camera's, when taken)
+    obs, look = g.observations[row], g.percept.looks[row]
     # the pick's label stands on the target as the truth has it (its top, projected)
     truth = next(o for o in g.truth if o.body == g.target_body)
     top = truth.position + truth.R[:, 2] * truth.size[1] / 2.0
@@ -63,7 +67,7 @@ def test_each_cluster_is_labelled_on_its_object(drawn: Any) -> None:
     d = look.detections[picked[0].detection]
     assert np.allclose(to_pixels(obs, label_anchor(d))[0], (picked[0].u, picked[0].v))
     # the text is drawn there, just above the object: those pixels are not the dimmed image
-    panel = _panel(png, g, 0, 2)
+    panel = _panel(png, g, row, 2)
     dimmed = (obs.rgb.astype(np.float32) * 0.35).astype(int)
     iu, iv = round(picked[0].u), round(picked[0].v)
     above = (slice(max(iv - 16, 0), iv - 4), slice(max(iu - 20, 0), iu + 20))

@@ -66,7 +66,8 @@ def test_perceive_needs_a_perceiver_and_without_it_the_report_is_unchanged() -> 
 
 def test_two_perceived_cycles_on_the_cluttered_cell() -> None:
     """The pick list's two kinds (the blue target, then the red can) among clutter, each picked
-    from the fixed sensor's estimate into the bin; the report carries what was seen."""
+    into the bin from what the sensors saw (the fixed sensor's look, and the wrist camera's,
+    which measures the radius); the report carries what was seen."""
     runner = Runner(
         RunConfig(cycles=2, seed=0, perceive=True),
         model=model_at(CELLS / "cluttered.toml"),
@@ -81,7 +82,7 @@ def test_two_perceived_cycles_on_the_cluttered_cell() -> None:
         assert 0.0 < p["position_error_mm"] < ERROR_BOUND_MM
         assert 0.0 <= p["axis_error_deg"] < 5.0
         assert p["looks"] in (1, 2) and len(p["clusters"]) == p["looks"]
-        assert p["clusters"][0] >= 2  # the target and at least one neighbour
+        assert max(p["clusters"]) >= 2  # the target and a neighbour seen (by either look)
         assert p["cpu_time_ms"] > 0.0
     report = build_report(RunConfig(cycles=2, perceive=True), results, 1.0)
     assert report["config"]["perceive"] is True
