@@ -159,6 +159,17 @@ def _blocked(guard: harness.Guard | None) -> dict[str, Any]:
     return {"blocked": [short(n, 200) for n in new]} if new else {}
 
 
+def prepare(argv: list[str]) -> tuple[str, int, int, harness.Guard | None]:
+    """A user's process's start (this one's and a perception function's): ``SPEC REQUEST_FD
+    ANSWER_FD PARENT_PID LIMITS_JSON`` read, the limits set, and the harness's guard put in
+    place when LIMITS_JSON asks. Returns the SPEC, the two pipes' fds and the guard."""
+    spec, req, ans, parent, given = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
+    limits = json.loads(given)
+    set_limits(limits, parent)
+    guard = harness.install() if limits.get("harness") else None
+    return spec, req, ans, guard
+
+
 def serve(argv: list[str]) -> int:
     """The user's process: set the limits, import the SPEC, answer calls until the pipe closes.
 
@@ -167,10 +178,7 @@ def serve(argv: list[str]) -> int:
             the parent's pid, only die with it; LIMITS_JSON's ``harness``: refuse and report
             imports of the grader's own code, :class:`~kr210_sim.sandbox.harness.Guard`).
     """
-    spec, req, ans, parent, given = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
-    limits = json.loads(given)
-    set_limits(limits, parent)
-    guard = harness.install() if limits.get("harness") else None
+    spec, req, ans, guard = prepare(argv)
     try:
         user = load_ik(spec)
     except MemoryError:

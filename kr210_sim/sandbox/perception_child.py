@@ -16,7 +16,6 @@ answers trusts none of them (:func:`~kr210_sim.sandbox.user_perception.read_answ
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -25,8 +24,7 @@ from typing import Any
 import numpy as np
 
 from kr210_sim.errors import PerceptionSpecError
-from kr210_sim.sandbox import harness
-from kr210_sim.sandbox.ik_child import _blocked, _fault, set_limits
+from kr210_sim.sandbox.ik_child import _blocked, _fault, prepare
 from kr210_sim.sandbox.ik_wire import read_exact, receive, send, short
 from kr210_sim.sandbox.user_perception import MAX_ENTRIES, MAX_LABEL, load_perception
 
@@ -132,10 +130,7 @@ def serve(argv: list[str]) -> int:
         argv: ``SPEC REQUEST_FD ANSWER_FD PARENT_PID LIMITS_JSON``, as
             :func:`kr210_sim.sandbox.ik_child.serve` takes them.
     """
-    spec, req, ans, parent, given = argv[0], int(argv[1]), int(argv[2]), int(argv[3]), argv[4]
-    limits = json.loads(given)
-    set_limits(limits, parent)
-    guard = harness.install() if limits.get("harness") else None
+    spec, req, ans, guard = prepare(argv)
     try:
         fn = load_perception(spec)
     except MemoryError:

@@ -30,6 +30,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -280,6 +281,34 @@ def _import_module(where: str) -> Any:
                 sys.path.remove(folder)
 
 
+def import_user_module(where: str, spec: str, option: str = "--ik") -> ModuleType:
+    """The module of a SPEC's ``where`` (a file path or a module name), imported here; what
+    goes wrong on the way is one line said of ``option SPEC``.
+
+    Raises:
+        IkSpecError: A syntax error, a module not found, or an import that raised (said of
+            ``option``; the file loader's own refusals are said of ``--ik``).
+    """
+    said = f"{option} {spec!r}"
+    try:
+        if _is_path(where):
+            return _import_file(Path(where), spec)
+        return _import_module(where)
+    except IkSpecError:
+        raise
+    except SyntaxError as exc:
+        line = f" line {exc.lineno}" if exc.lineno else ""
+        raise IkSpecError(
+            f"{said}: syntax error in {exc.filename or where}{line}: {one_line(exc.msg)}"
+        ) from None
+    except ModuleNotFoundError as exc:
+        if exc.name and (where == exc.name or where.startswith(exc.name + ".")):
+            raise IkSpecError(f"{said}: no module named {exc.name!r}") from None
+        raise IkSpecError(f"{said}: importing {where} raised {describe_exception(exc)}") from None
+    except (Exception, SystemExit) as exc:
+        raise IkSpecError(f"{said}: importing {where} raised {describe_exception(exc)}") from None
+
+
 @lru_cache(maxsize=16)
 def load_ik(spec: str) -> UserIk:
     """Load the IK function a SPEC names (once per process and SPEC).
@@ -306,28 +335,7 @@ def load_ik(spec: str) -> UserIk:
     where, name = split_spec(spec)
     if _is_path(where) and is_ros_form(Path(where)):
         return _load_server(spec, Path(where), name)
-    try:
-        if _is_path(where):
-            module = _import_file(Path(where), spec)
-        else:
-            module = _import_module(where)
-    except IkSpecError:
-        raise
-    except SyntaxError as exc:
-        line = f" line {exc.lineno}" if exc.lineno else ""
-        raise IkSpecError(
-            f"--ik {spec!r}: syntax error in {exc.filename or where}{line}: {one_line(exc.msg)}"
-        ) from None
-    except ModuleNotFoundError as exc:
-        if exc.name and (where == exc.name or where.startswith(exc.name + ".")):
-            raise IkSpecError(f"--ik {spec!r}: no module named {exc.name!r}") from None
-        raise IkSpecError(
-            f"--ik {spec!r}: importing {where} raised {describe_exception(exc)}"
-        ) from None
-    except (Exception, SystemExit) as exc:
-        raise IkSpecError(
-            f"--ik {spec!r}: importing {where} raised {describe_exception(exc)}"
-        ) from None
+    module = import_user_module(where, spec)
     fn = getattr(module, name, None)
     if fn is None:
         defined = sorted(

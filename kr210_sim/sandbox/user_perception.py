@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import Any
 
 from kr210_sim.errors import IkSpecError, PerceptionSpecError, one_line
-from kr210_sim.sandbox.user_ik import _import_file, _import_module, _is_path, describe_exception
+from kr210_sim.sandbox.user_ik import _is_path, import_user_module
 
 #: Most entries an answer may hold.
 MAX_ENTRIES = 64
@@ -118,27 +118,9 @@ def load_perception(spec: str) -> Callable[..., Any]:
     """
     where, name = check_spec(spec)
     try:
-        module = _import_file(Path(where), spec) if _is_path(where) else _import_module(where)
+        module = import_user_module(where, spec, "--perception")
     except IkSpecError as exc:
         raise PerceptionSpecError(_flag(spec, str(exc))) from None
-    except SyntaxError as exc:
-        line = f" line {exc.lineno}" if exc.lineno else ""
-        raise PerceptionSpecError(
-            f"--perception {spec!r}: syntax error in {exc.filename or where}{line}: "
-            f"{one_line(exc.msg)}"
-        ) from None
-    except ModuleNotFoundError as exc:
-        if exc.name and (where == exc.name or where.startswith(exc.name + ".")):
-            raise PerceptionSpecError(
-                f"--perception {spec!r}: no module named {exc.name!r}"
-            ) from None
-        raise PerceptionSpecError(
-            f"--perception {spec!r}: importing {where} raised {describe_exception(exc)}"
-        ) from None
-    except (Exception, SystemExit) as exc:
-        raise PerceptionSpecError(
-            f"--perception {spec!r}: importing {where} raised {describe_exception(exc)}"
-        ) from None
     fn = getattr(module, name, None)
     if fn is None:
         raise PerceptionSpecError(f"--perception {spec!r}: {where} has no function {name!r}")
