@@ -386,13 +386,9 @@ def evaluate(args: argparse.Namespace) -> int:
         else "none (no episode succeeded)"
     )
     if "perception" in s:
-        p, e = s["perception"], s["perception"]["position_error_mm"]
-        err = (  # none when nothing was recognised
-            f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
-            if e
-            else ""
-        )
-        out.write(f"  recognised    {p['recognised']}/{p['episodes']}{err}\n")
+        from kr210_sim.score.report import recognised
+
+        out.write(f"  recognised    {recognised(s['perception'], s['perception']['episodes'])}\n")
     out.write(
         f"  cycle time    {cycle_time}\n"
         f"  wall time     {ex['wall_time_s']:.1f} s on {where}{resumed}\n"

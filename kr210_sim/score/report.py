@@ -211,6 +211,18 @@ def cycle_line(r: CycleResult, total: int) -> str:
     )
 
 
+def recognised(perception: dict[str, Any], of: int) -> str:
+    """A summary's ``perception`` block in one line: recognised of ``of`` (cycles or episodes),
+    and the position error's median / p95 / max [mm] (none when nothing was recognised)."""
+    e = perception["position_error_mm"]
+    err = (
+        f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
+        if e
+        else ""
+    )
+    return f"{perception['recognised']}/{of}{err}"
+
+
 def summary_table(summary: dict[str, Any]) -> str:
     """A small plain-text summary table."""
     rows = [
@@ -235,13 +247,8 @@ def summary_table(summary: dict[str, Any]) -> str:
             4, ("moves / their lower bound", f"{b['mean']:.2f} / {b['max']:.2f} (mean / max)")
         )
     if "perception" in summary:
-        p, e = summary["perception"], summary["perception"]["position_error_mm"]
-        err = (  # none when nothing was recognised
-            f"; error median / p95 / max {e['median']:.1f} / {e['p95']:.1f} / {e['max']:.1f} mm"
-            if e
-            else ""
-        )
-        rows.append(("recognised", f"{p['recognised']}/{p['cycles']}{err}"))
+        p = summary["perception"]
+        rows.append(("recognised", recognised(p, p["cycles"])))
     if "wall_time_s" in summary:
         wall, rtf = summary["wall_time_s"], summary["wall_real_time_factor"]
         factor = f"{rtf:.0f}" if rtf >= 10 else f"{rtf:.2g}"  # never "0x" for a slow run
