@@ -163,17 +163,10 @@ def _add_run_options(cmd: argparse.ArgumentParser, report: Path) -> None:
     """The options ``run`` and ``view`` share."""
     cmd.add_argument("--cycles", type=_cycles, default=10, help="cycles to run (10)")
     _add_seed_option(cmd, "the run's generator")
-    cmd.add_argument(
-        "--slot",
-        type=argtypes.slot,
-        default=0,
-        help="slot 1-9 (bottom row first), 0 = random per cycle (0)",
-    )
-    cmd.add_argument(
-        "--randomize",
-        action="store_true",
-        help="randomise target pose, size, mass and friction per cycle",
-    )
+    slot = "slot 1-9 (bottom row first), 0 = random per cycle (0)"
+    cmd.add_argument("--slot", type=argtypes.slot, default=0, help=slot)
+    drawn = "randomise target pose, size, mass and friction per cycle"
+    cmd.add_argument("--randomize", action="store_true", help=drawn)
     _add_report_option(cmd, report, "JSON report path")
     _add_min_success_option(cmd, 0.8, "pass bar: exit 1 below this success rate (0.8)")
     _add_scene_option(cmd)
@@ -194,12 +187,9 @@ def _add_video_options(cmd: argparse.ArgumentParser, camera: str, fps: str) -> N
         default=None,
         help=f"camera for the video ({camera}); repeat to tile views side by side",
     )
-    cmd.add_argument(
-        "--width", type=argtypes.multiple_of_16, default=None, help="video width [px] (640)"
-    )
-    cmd.add_argument(
-        "--height", type=argtypes.multiple_of_16, default=None, help="video height [px] (480)"
-    )
+    for side, px in (("width", 640), ("height", 480)):
+        size = f"video {side} [px] ({px})"
+        cmd.add_argument(f"--{side}", type=argtypes.multiple_of_16, default=None, help=size)
     cmd.add_argument(
         "--fps", type=argtypes.fps, default=None, help=f"video frames per simulated s ({fps})"
     )
@@ -245,13 +235,9 @@ def _add_perception_options(cmd: argparse.ArgumentParser) -> None:
         help="with --perceive, your perception in place of ours, jailed: "
         "package.module:function or path/to/file.py:function",
     )
-    cmd.add_argument(
-        "--perception-timeout",
-        type=argtypes.seconds,
-        default=None,
-        metavar="S",
-        help="time --perception's function may take per look (10)",
-    )
+    per_look = "time --perception's function may take per look (10)"
+    kind = argtypes.seconds
+    cmd.add_argument("--perception-timeout", type=kind, default=None, metavar="S", help=per_look)
 
 
 def _add_replay(sub: _Commands) -> None:
@@ -486,6 +472,15 @@ def _add_perceive(sub: _Commands) -> None:
     cmd.set_defaults(func=commands.perceive)
 
 
+def _add_train_recogniser(sub: _Commands) -> None:
+    cmd = sub.add_parser("train-recogniser", help="train perception's recogniser on a cell")
+    cmd.add_argument("--cell", type=Path, required=True, metavar="PATH", help="cell file (TOML)")
+    cmd.add_argument("--out", type=Path, required=True, help="the model file to write (JSON)")
+    _add_seed_option(cmd, "the rendered scenes")
+    cmd.add_argument("--scenes", type=argtypes.positive_int, default=120, help="scenes (120)")
+    cmd.set_defaults(func=commands.train_recogniser)
+
+
 #: The commands in the order ``--help`` lists them.
 _COMMANDS: tuple[Callable[[_Commands], None], ...] = (
     _add_run,
@@ -500,6 +495,7 @@ _COMMANDS: tuple[Callable[[_Commands], None], ...] = (
     _add_build_meshes,
     _add_snapshot,
     _add_perceive,
+    _add_train_recogniser,
 )
 
 

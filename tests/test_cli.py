@@ -44,7 +44,7 @@ def test_usage_errors(argv: list[str], message: str, capsys: pytest.CaptureFixtu
 
 COMMANDS = (
     "run", "replay", "view", "evaluate", "check", "ik-check", "grade", "demos",
-    "build-scene", "build-meshes", "snapshot", "perceive",
+    "build-scene", "build-meshes", "snapshot", "perceive", "train-recogniser",
 )  # fmt: skip
 
 

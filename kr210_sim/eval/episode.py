@@ -7,8 +7,8 @@ bin) running one cycle of ``RunConfig(cycles=1, seed=episode_seed, randomize=...
 how episodes are spread over processes or machines, and any episode is replayed exactly by
 ``python -m kr210_sim run --cycles 1 --seed <episode seed> [--randomize] [--perceive]``.
 With ``perceive`` the episode picks from what the cell's sensors saw
-(:class:`kr210_sim.sensors.perceiver.Perceiver`; the recogniser is loaded once per process, the
-sensors' renderers are freed after each episode).
+(:class:`kr210_sim.sensors.perceiver.Perceiver`; the cell's recogniser is loaded once per
+process, the sensors' renderers are freed after each episode).
 
 Every process that runs episodes (the driver, a local worker, a Ray worker) loads the scene once
 and keeps it: :func:`run_chunk` is the unit of work that the backends ship.
@@ -26,7 +26,6 @@ from kr210_sim.score.result import CycleResult, cycle_record
 from kr210_sim.sim.session import episode_runner
 
 if TYPE_CHECKING:  # the sensors render: imported only for perceived episodes
-    from kr210_sim.perception.model import RecognitionModel
     from kr210_sim.plan.planner import Planner
     from kr210_sim.sensors.perceiver import Perceiver
     from kr210_sim.sim.perceived import PerceiverFactory
@@ -35,8 +34,6 @@ import mujoco  # isort: skip
 
 #: The scene loaded in this process: (path as given, model). One at a time.
 _PRISTINE: tuple[str | None, mujoco.MjModel] | None = None
-#: The recogniser of this process's perceived episodes (loaded and fitted once).
-_RECOGNISER: RecognitionModel | None = None
 
 
 def episode_seed(seed: int, index: int) -> int:
@@ -75,25 +72,17 @@ def perceiver_factory(perceive: Perceive = True) -> PerceiverFactory:
         from kr210_sim.sandbox.perception_sandbox import open_perception
         from kr210_sim.sensors.user_perceiver import user_perceiver
 
-        return user_perceiver(open_perception(*perceive), _recogniser())
+        return user_perceiver(open_perception(*perceive))
     return _perceiver
 
 
-def _recogniser() -> RecognitionModel:
-    """This process's recogniser (loaded on first use)."""
-    global _RECOGNISER
-    if _RECOGNISER is None:
-        from kr210_sim.perception.model import load_model
-
-        _RECOGNISER = load_model()
-    return _RECOGNISER
-
-
 def _perceiver(model: mujoco.MjModel, planner: Planner) -> Perceiver:
-    """A perceiver of ``model`` with this process's recogniser (loaded on first use)."""
+    """A perceiver of ``model`` with the cell's recogniser (read or trained once a process:
+    :func:`~kr210_sim.sensors.recognisers.recogniser_for` keeps it)."""
     from kr210_sim.sensors.perceiver import Perceiver
+    from kr210_sim.sensors.recognisers import recogniser_for
 
-    return Perceiver(model, planner, _recogniser())
+    return Perceiver(model, planner, recogniser_for(model))
 
 
 def run_episode(

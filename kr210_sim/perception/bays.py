@@ -1,22 +1,18 @@
-"""The numbers the pipeline takes from a cell: a slot's bay as a box, and the object kinds.
+"""The numbers the pipeline takes from a cell file: a slot's bay as a box.
 
-The pipeline itself knows nothing of cell files (it takes a :class:`BayBox` and
-:class:`~kr210_sim.perception.kinds.Kind` values); these two functions read them off a cell's
-shelf and object kinds, as the MJCF builds the shelf (:mod:`kr210_sim.cell.mjcf`).
+The pipeline itself knows nothing of cell files (it takes a :class:`BayBox`); :func:`bay_box`
+reads it off a cell's shelf, as the MJCF builds the shelf (:mod:`kr210_sim.cell.mjcf`). (A
+compiled cell's kinds: :func:`kr210_sim.sensors.recognisers.cell_kinds`.)
 """
 
 from __future__ import annotations
 
-from kr210_sim.cell.sensing import TARGET_KIND, TARGET_RGB
 from kr210_sim.cell.spec import (
     SHELF_BOARD_THICKNESS,
     SHELF_POST_WIDTH,
-    CellConfig,
     ShelfSpec,
-    TargetSpec,
 )
 from kr210_sim.perception.cloud import BayBox
-from kr210_sim.perception.kinds import Kind
 
 #: Thickness of the shelf's back panel [m] (the MJCF's ``shelf_back``).
 SHELF_BACK_THICKNESS = 0.02
@@ -50,11 +46,3 @@ def bay_box(shelf: ShelfSpec, slot: int) -> BayBox:
         (ceiling - floor) / 2.0,
     )
     return BayBox((float(centre[0]), float(centre[1]), float(centre[2])), shelf.yaw, half)
-
-
-def cell_kinds(cell: CellConfig, target: TargetSpec | None = None) -> tuple[Kind, ...]:
-    """The kinds of a cell: its target cylinder (at ``target``'s size, the cell's by default)
-    and its ``[[objects]]`` kinds."""
-    t = target or cell.target
-    own = Kind(TARGET_KIND, "cylinder", (t.radius, t.length), TARGET_RGB)
-    return (own, *(Kind.of(k) for k in cell.objects))

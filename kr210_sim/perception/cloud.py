@@ -155,8 +155,10 @@ def bay_cloud(
     """The observation's points inside the bay (grown by ``margin`` [m]) in the box frame.
 
     Only the pixels of the rectangle that holds the box's image are back-projected, every
-    ``s``-th row and column where a voxel at the box's centre spans ``s`` pixels or more (a
-    close look), so a look costs what the bay's points cost, not the whole image's.
+    ``s``-th row and column where a voxel at the box's near depth spans ``s - 1/2`` pixels or
+    more (a close look, or a far look at a fine voxel), so a look costs what the bay's points
+    cost, not the whole image's: a pixel stride about the voxel, which thins the cloud to that
+    voxel in any case.
 
     Args:
         obs: The look.
@@ -173,7 +175,7 @@ def bay_cloud(
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint8)
     u0, u1, v0, v1, z_near = roi
     k = obs.intrinsics
-    step = max(1, int(voxel * k.fx / max(z_near, 1e-6))) if z_near > 0.0 else 1
+    step = max(1, round(voxel * k.fx / max(z_near, 1e-6))) if z_near > 0.0 else 1
     depth = obs.depth[v0:v1:step, u0:u1:step]
     sub = Intrinsics(
         width=depth.shape[1],

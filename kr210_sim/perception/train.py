@@ -4,7 +4,9 @@
 (:mod:`kr210_sim.perception.synthetic_bay`, each seen from the fixed sensor's viewpoint and from
 the wrist camera's, with a D415's noise), every cluster labelled by the object it covers, its
 features computed as :func:`~kr210_sim.perception.pipeline.perceive` computes them. The same
-seed and count give the same file.
+seed and count give the same file. A cell's rendered scenes (what the shipped model is trained
+on) are the sensors' to draw: ``python -m kr210_sim train-recogniser --cell FILE``
+(:mod:`kr210_sim.sensors.recognisers`), through :func:`training_set_from_looks`.
 """
 
 from __future__ import annotations
@@ -19,8 +21,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from kr210_sim.cell.toml import load_cell
-from kr210_sim.perception.bays import bay_box, cell_kinds
 from kr210_sim.perception.camera import Intrinsics
 from kr210_sim.perception.cloud import BayBox
 from kr210_sim.perception.features import features
@@ -132,35 +132,9 @@ def train(seed: int, samples: int, kinds: Sequence[Kind] = DEFAULT_KINDS) -> Rec
     return RecognitionModel(tuple(kinds), X, tuple(y), seed, samples)
 
 
-def train_on_cell(
-    cell_path: Path, seed: int, samples: int, render: Callable[..., Iterable[Any]]
-) -> RecognitionModel:
-    """A recogniser trained on ``samples`` rendered scenes of a cell, each seen by its fixed
-    sensor and from the wrist camera's second-look pose.
-
-    Args:
-        cell_path: The cell file.
-        seed: The scenes' seed.
-        samples: The number of scenes.
-        render: ``kr210_sim.sensors.samples.render_samples`` (passed in: the sensors sit
-            further down the package's flow than this room).
-    """
-    cell = load_cell(cell_path)
-    sensors = tuple(s.name for s in cell.sensors)
-    looks = render(cell_path, samples, seed=seed, sensors=sensors)
-    X, y = training_set_from_looks(looks, lambda slot: bay_box(cell.shelf, slot))
-    return RecognitionModel(cell_kinds(cell), X, tuple(y), seed, samples)
-
-
-def main(
-    argv: Sequence[str] | None = None, render: Callable[..., Iterable[Any]] | None = None
-) -> int:
-    """The training command; 0 on success, 2 on a usage error.
-
-    Args:
-        argv: The arguments.
-        render: ``render_samples``, for ``--cell`` (trained on the ray caster's bays without).
-    """
+def main(argv: Sequence[str] | None = None) -> int:
+    """The training command on the ray caster's bays; 0 on success, 2 on a usage error (a
+    cell's rendered scenes: ``python -m kr210_sim train-recogniser --cell FILE``)."""
     parser = argparse.ArgumentParser(
         prog="python -m kr210_sim.perception.train",
         description="Train the recogniser on seeded cluttered bays and write its model file.",
@@ -168,24 +142,14 @@ def main(
     parser.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
     parser.add_argument("--samples", type=int, default=150, help="scenes (default 150)")
     parser.add_argument("--out", type=Path, required=True, help="the model file to write")
-    parser.add_argument("--cell", type=Path, help="train on this cell's rendered scenes")
     args = parser.parse_args(argv)
-    if args.cell is not None and render is None:
-        print("error: --cell needs the renderer: run it as kr210_sim's command", file=sys.stderr)
-        return 2
-    if args.cell is not None and not args.cell.is_file():
-        print(f"error: cell file {args.cell} does not exist", file=sys.stderr)
-        return 2
     if args.samples < 2:
         print(f"error: --samples must be at least 2, got {args.samples}", file=sys.stderr)
         return 2
     if not args.out.parent.is_dir():
         print(f"error: {args.out.parent} is not a directory", file=sys.stderr)
         return 2
-    if args.cell is not None and render is not None:
-        model = train_on_cell(args.cell, args.seed, args.samples, render)
-    else:
-        model = train(args.seed, args.samples)
+    model = train(args.seed, args.samples)
     model.save(args.out)
     counts = {k: model.y.count(k) for k in sorted(set(model.y))}
     print(f"wrote {args.out}: {len(model.y)} clusters from {args.samples} scenes {counts}")

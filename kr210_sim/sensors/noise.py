@@ -124,9 +124,9 @@ MODELS: dict[str, DepthNoise] = {
 }
 
 
-def incidence_deg(depth: npt.NDArray[np.floating], intrinsics: Intrinsics) -> FloatArray:
-    """Angle between each pixel's ray and the surface normal [deg], from the depth image's
-    neighbours (central differences; NaN on the border and where a neighbour is missing)."""
+def _incidence_cos(depth: npt.NDArray[np.floating], intrinsics: Intrinsics) -> FloatArray:
+    """Cosine of the angle between each interior pixel's ray and the surface normal (float32,
+    shape (H - 2, W - 2); NaN where the pixel or a neighbour is missing)."""
     z = np.asarray(depth, dtype=np.float32)
     h, w = z.shape
     x = ((np.arange(w, dtype=np.float32) - intrinsics.cx) / intrinsics.fx)[None, :]
@@ -143,21 +143,45 @@ def incidence_deg(depth: npt.NDArray[np.floating], intrinsics: Intrinsics) -> Fl
     rx, ry = x[:, 1:-1], y[1:-1, :]
     dot = np.abs(nx * rx + ny * ry + nz)
     norm = np.sqrt((nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + 1.0))
-    out = np.full((h, w), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         cos = np.clip(dot / norm, 0.0, 1.0)
-        inner = np.degrees(np.arccos(cos, dtype=np.float32))
     missing = z <= 0
     near_missing = missing[1:-1, 2:] | missing[1:-1, :-2] | missing[2:, 1:-1] | missing[:-2, 1:-1]
-    inner[near_missing | missing[1:-1, 1:-1]] = np.nan
-    out[1:-1, 1:-1] = inner
+    cos[near_missing | missing[1:-1, 1:-1]] = np.nan
+    return cos
+
+
+def incidence_deg(depth: npt.NDArray[np.floating], intrinsics: Intrinsics) -> FloatArray:
+    """Angle between each pixel's ray and the surface normal [deg], from the depth image's
+    neighbours (central differences; NaN on the border and where a neighbour is missing)."""
+    h, w = np.shape(depth)
+    out = np.full((h, w), np.nan)
+    with np.errstate(invalid="ignore"):
+        out[1:-1, 1:-1] = np.degrees(np.arccos(_incidence_cos(depth, intrinsics)))
+    return out
+
+
+def _grazing_dropout(
+    depth: npt.NDArray[np.floating], intrinsics: Intrinsics, model: DepthNoise
+) -> npt.NDArray[np.float32]:
+    """Each pixel's share of missing for its incidence (0 on the border and beside a missing
+    pixel): :meth:`DepthNoise.grazing_dropout` of :func:`incidence_deg`, the angle worked out
+    only where it passes :attr:`DepthNoise.grazing_start_deg` (the rest drop none)."""
+    cos = _incidence_cos(depth, intrinsics)
+    out = np.zeros(np.shape(depth), dtype=np.float32)
+    with np.errstate(invalid="ignore"):
+        steep = cos < np.float32(math.cos(math.radians(model.grazing_start_deg)))
+    rows, cols = np.nonzero(steep)
+    angle = np.degrees(np.arccos(cos[rows, cols]))
+    out[rows + 1, cols + 1] = model.grazing_dropout(angle)
     return out
 
 
 def _edge_partner(
     z: npt.NDArray[np.float32], jump: float
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float32]]:
-    """Pixels at a depth edge, and the depth across it (the neighbour farthest in depth)."""
+    """Pixels at a depth edge, and the depth across it (the neighbour farthest in depth; of
+    equal jumps, the first of right, left, below, above)."""
     best = np.zeros_like(z)
     partner = z.copy()
     d_h = np.abs(z[:, 1:] - z[:, :-1])
@@ -170,10 +194,10 @@ def _edge_partner(
         ((slice(None, -1), slice(None)), (slice(1, None), slice(None)), d_v),
         ((slice(1, None), slice(None)), (slice(None, -1), slice(None)), d_v),
     ):
-        b, p = best[here], partner[here]
+        b, p = best[here], partner[here]  # views: written in place
         better = diff > b
-        b[better] = diff[better]
-        p[better] = z[there][better]
+        np.copyto(b, diff, where=better)
+        np.copyto(p, z[there], where=better)
     edge = (z > 0) & (best > np.float32(jump) * np.minimum(z, partner))
     return edge, partner
 
@@ -209,14 +233,14 @@ def apply_noise(
     z_true[rows, cols] += t * (partner[rows, cols] - z[rows, cols])
     # missing pixels, judged on the perfect images (an edge's slope is no surface's: the edge
     # has its flying pixels instead)
-    p_miss = np.nan_to_num(model.grazing_dropout(incidence_deg(z, intrinsics)), nan=0.0)
+    p_miss = _grazing_dropout(z, intrinsics, model)
     p_miss[edge] = 0.0
     lum = (rgb.astype(np.float32) @ np.array([0.299, 0.587, 0.114], dtype=np.float32)) / 255.0
     dark = lum < model.dark_luminance
     if dark.any():
         share = model.dark_dropout * (model.dark_luminance - lum[dark]) / model.dark_luminance
         p_miss[dark] = 1.0 - (1.0 - p_miss[dark]) * (1.0 - share)
-    shiny = rgb.min(axis=-1) >= model.saturated
+    shiny = np.minimum(np.minimum(rgb[..., 0], rgb[..., 1]), rgb[..., 2]) >= model.saturated
     if shiny.any():
         p_miss[shiny] = 1.0 - (1.0 - p_miss[shiny]) * (1.0 - model.saturated_dropout)
     # range noise in disparity, its 1/32 px step, and the 1 mm unit
@@ -234,7 +258,8 @@ def apply_noise(
     missing = rng.random(z.shape, dtype=np.float32) < p_miss
     noisy[missing | ~ok] = 0.0
     # colour: read and shot noise
+    levels = np.arange(256, dtype=np.float32)  # sigma of each 8-bit level, looked up
+    sigma = np.sqrt(np.float32(model.rgb_read**2) + np.float32(model.rgb_gain) * levels)
     img = rgb.astype(np.float32)
-    sigma = np.sqrt(np.float32(model.rgb_read**2) + np.float32(model.rgb_gain) * img)
-    img += rng.standard_normal(img.shape, dtype=np.float32) * sigma
+    img += rng.standard_normal(img.shape, dtype=np.float32) * sigma[rgb]
     return np.clip(np.round(img), 0, 255).astype(np.uint8), noisy.astype(np.float32, copy=False)

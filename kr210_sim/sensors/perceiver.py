@@ -26,12 +26,13 @@ from kr210_sim.cell.layout import CellLayout
 from kr210_sim.cell.spec import TargetSpec
 from kr210_sim.errors import ConfigError, NotSeenError, PlanningError, UnreachablePoseError
 from kr210_sim.perception.camera import Observation
-from kr210_sim.perception.model import RecognitionModel, load_model
+from kr210_sim.perception.model import RecognitionModel
 from kr210_sim.perception.pipeline import Percept, perceive
 from kr210_sim.plan.cycle import Move
 from kr210_sim.plan.planner import Planner
 from kr210_sim.score.result import TargetSample
 from kr210_sim.sensors.looks import wrist_look_q
+from kr210_sim.sensors.recognisers import cell_kinds, recogniser_for
 from kr210_sim.sensors.render import SensorRig
 from kr210_sim.sensors.truth import shelf_truth
 from kr210_sim.sim.cell import Cell
@@ -60,10 +61,13 @@ class Perceiver:
         model: The cell model (with sensors: a fixed one looking at the shelf, and optionally
             one on the gripper).
         planner: Plans the move to the wrist look.
-        recogniser: The recognition model (default: the shipped one).
+        recogniser: The recognition model (default, with our pipeline: the cell's,
+            :func:`~kr210_sim.sensors.recognisers.recogniser_for`; none with a user's
+            function, which is told the cell's kinds).
         estimator: What makes a percept of the looks, called as
             :func:`~kr210_sim.perception.pipeline.perceive` (default: that, our pipeline; a
-            user's function: :class:`~kr210_sim.sensors.user_perceiver.UserPerception`).
+            user's function: :class:`~kr210_sim.sensors.user_perceiver.UserPerception`); with
+            the second look it is given the first's analysis (``done``), not to redo it.
 
     Raises:
         ConfigError: When the cell has no sensors, or no fixed one.
@@ -77,7 +81,9 @@ class Perceiver:
         estimator: Callable[..., Percept] | None = None,
     ) -> None:
         self.model, self.planner = model, planner
-        self.estimator = estimator or perceive
+        self.estimator: Callable[..., Percept] = estimator or perceive
+        #: The cell's kinds, by label.
+        self.kinds = {k.name: k for k in cell_kinds(model)}
         self.layout = CellLayout.from_model(model)
         self.rig = SensorRig(model)
         fixed = [s.name for s in self.rig.sensors.values() if s.mount == "world"]
@@ -85,8 +91,12 @@ class Perceiver:
         if not fixed:
             raise ConfigError("--perceive needs a fixed sensor looking at the shelf in the cell")
         self.fixed, self.wrist = fixed[0], (wrist[0] if wrist else None)
-        self.recogniser = recogniser or load_model()
-        self.recogniser.probabilities(self.recogniser.X[:1])  # fit the SVM now, not in a cycle
+        if recogniser is None and estimator is None:
+            recogniser = recogniser_for(model)
+        self.recogniser = recogniser
+        if recogniser is not None:
+            recogniser.probabilities(recogniser.X[:1])  # fit the SVM now, not in a cycle
+        self.rig.warm(mujoco.MjData(model))  # and make the renderers now
         #: The estimate of the cycle's target centre [m] (None before a look found it).
         self.estimate: FloatArray | None = None
         #: The record of the last cycle's perception.
@@ -128,7 +138,7 @@ class Perceiver:
         """
         self.estimate, self.record = None, None
         self.observations, self.percept = (), None
-        slot, kind = sample.slot, self.recogniser.kind(label)
+        slot, kind = sample.slot, self.kinds[label]
         radius = kind.size[0]  # the kind's: the wrist look's standoff
         box = layout_bay(self.layout, slot)
         wall = 0.0
@@ -147,7 +157,7 @@ class Perceiver:
                 t0 = time.perf_counter()
                 looks.append(self.rig.look(cell.data, self.wrist))
                 wall += time.perf_counter() - t0
-                p = self.estimator(looks, label, box, self.recogniser, seed)
+                p = self.estimator(looks, label, box, self.recogniser, seed, done=p.looks)
                 cpu += p.cpu_time
         self.record = self._score(cell, k, label, p, len(looks), cpu, wall)
         self.observations, self.percept = tuple(looks), p
@@ -162,7 +172,7 @@ class Perceiver:
         """Where a ``label`` standing at ``slot``'s centre would have its centre [m] (the
         layout's, not the truth's)."""
         centre = np.asarray(self.layout.slots[slot - 1], dtype=np.float64).copy()
-        centre[2] += self.recogniser.kind(label).height / 2.0
+        centre[2] += self.kinds[label].height / 2.0
         return centre
 
     def _carry_wrist(

@@ -63,6 +63,13 @@ class SensorRig:
             self._renderers[key] = r
         return self._renderers[key]
 
+    def warm(self, data: mujoco.MjData) -> None:
+        """Make every sensor's renderer and draw one frame with each (the GL context, its
+        shaders and the model's textures: about 0.5 s with Mesa's llvmpipe, once), so that the
+        first look costs what every other does."""
+        for name in self.sensors:
+            self.render(data, name)
+
     def sensor(self, name: str) -> SensorSpec:
         """A sensor by name.
 

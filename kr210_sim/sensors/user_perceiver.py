@@ -23,7 +23,7 @@ import numpy.typing as npt
 from kr210_sim.cell.sensing_layout import pick_list_of
 from kr210_sim.perception.camera import Observation
 from kr210_sim.perception.cloud import BayBox
-from kr210_sim.perception.kinds import Detection, Pose
+from kr210_sim.perception.kinds import Detection, Kind, Pose
 from kr210_sim.perception.model import RecognitionModel
 from kr210_sim.perception.pipeline import CONFIDENT, Look, Percept
 from kr210_sim.plan.planner import Planner
@@ -32,6 +32,7 @@ from kr210_sim.sandbox.ik_wire import Oversized
 from kr210_sim.sandbox.perception_sandbox import PerceptionSandbox
 from kr210_sim.sandbox.user_perception import Estimate, UnusableAnswer, read_answer, spec_name
 from kr210_sim.sensors.perceiver import Perceiver
+from kr210_sim.sensors.recognisers import cell_kinds
 from kr210_sim.sim.perceived import PerceiverFactory
 
 import mujoco  # isort: skip
@@ -48,7 +49,7 @@ def _frame(axis: FloatArray) -> FloatArray:
 
 
 def look_items(
-    obs: Observation, pick: str, pick_list: Sequence[str], bay: BayBox, model: RecognitionModel
+    obs: Observation, pick: str, pick_list: Sequence[str], bay: BayBox, kinds: Sequence[Kind]
 ) -> dict[str, Any]:
     """A look's small items as the user's function gets them (the contract's keys but the
     images)."""
@@ -60,8 +61,7 @@ def look_items(
         "pick": pick,
         "pick_list": list(pick_list),
         "kinds": {
-            k.name: {"shape": k.shape, "size": list(k.size), "rgb": list(k.rgb)}
-            for k in model.kinds
+            k.name: {"shape": k.shape, "size": list(k.size), "rgb": list(k.rgb)} for k in kinds
         },
         "bay": {"center": list(bay.centre), "yaw": bay.yaw, "half": list(bay.half)},
     }
@@ -74,20 +74,21 @@ class UserPerception:
     Args:
         sandbox: The user's function in its process (started).
         pick_list: The cell's pick list (what the function is told besides the cycle's pick).
+        kinds: The cell's kinds (what the function is told of each).
     """
 
-    def __init__(self, sandbox: PerceptionSandbox, pick_list: Sequence[str]) -> None:
+    def __init__(
+        self, sandbox: PerceptionSandbox, pick_list: Sequence[str], kinds: Sequence[Kind]
+    ) -> None:
         self.sandbox = sandbox
         self.pick_list = tuple(pick_list)
+        self.kinds = tuple(kinds)
         #: How messages name the user's function (``file.py:function``).
         self.name = spec_name(sandbox.spec)
-        self._seen: list[tuple[Observation, Look, float]] = []
 
-    def _call(
-        self, obs: Observation, pick: str, bay: BayBox, model: RecognitionModel
-    ) -> tuple[Look, float]:
+    def _call(self, obs: Observation, pick: str, bay: BayBox) -> tuple[Look, float]:
         """One look through the user's function: its detections, or the one-line problem."""
-        items = look_items(obs, pick, self.pick_list, bay, model)
+        items = look_items(obs, pick, self.pick_list, bay, self.kinds)
         cpu, problems, found = 0.0, [], []
         try:
             got = self.sandbox.look(items, {"rgb": obs.rgb, "depth": obs.depth})
@@ -100,19 +101,15 @@ class UserPerception:
             problems.append(f"{self.name}: {exc}")
         except Exception as exc:  # what the user's function raised, by its type's name
             problems.append(f"{self.name} raised {type(exc).__name__}: {exc}")
-        detections = tuple(self._detection(e, model) for e in found)
+        detections = tuple(self._detection(e) for e in found)
         empty = np.zeros((0, 3))
         look = Look(obs.sensor, detections, tuple(problems), {"user": cpu}, empty, np.zeros(0, int))
         return look, cpu
 
-    @staticmethod
-    def _detection(e: Estimate, model: RecognitionModel) -> Detection:
+    def _detection(self, e: Estimate) -> Detection:
         """An estimate as the pipeline's detection (the kind's nominal size and shape)."""
-        try:
-            kind = model.kind(e.label)
-            shape, size = kind.shape, kind.size
-        except KeyError:
-            shape, size = "cylinder", (0.0, 0.0)
+        kind = next((k for k in self.kinds if k.name == e.label), None)
+        shape, size = (kind.shape, kind.size) if kind is not None else ("cylinder", (0.0, 0.0))
         position, axis = np.array(e.position), np.array(e.axis)
         pose = Pose(position, axis, _frame(axis), size, 0.0)
         return Detection(e.label, e.confidence, shape, pose, 0, position, (), measured=False)
@@ -122,21 +119,18 @@ class UserPerception:
         observations: Sequence[Observation],
         pick_label: str,
         bay: BayBox,
-        model: RecognitionModel,
+        model: RecognitionModel | None = None,
         seed: int = 0,
+        done: Sequence[Look] = (),
     ) -> Percept:
-        """The target among the user's answers to ``observations`` (each look asked once a
-        cycle): the entry labelled ``pick_label`` that is confident, then from the latest look,
-        then the most confident. ``seed`` is not used (the user's function has its own)."""
-        seen, cpu = [], 0.0  # the CPU time of the looks asked now (the perceiver adds them)
-        for obs in observations:
-            done = next((s for s in self._seen if s[0] is obs), None)
-            if done is None:
-                done = (obs, *self._call(obs, pick_label, bay, model))
-                cpu += done[2]
-            seen.append(done)
-        self._seen = seen
-        looks = tuple(look for _, look, _ in seen)
+        """The target among the user's answers to ``observations``: the entry labelled
+        ``pick_label`` that is confident, then from the latest look, then the most confident.
+        The first ``len(done)`` looks are not asked again (``done``: their answers, from the
+        call before); ``cpu_time`` is the user's CPU time of the looks asked now. ``model`` and
+        ``seed`` are not used (the function is told the cell's kinds, and has its own seed)."""
+        new = [self._call(obs, pick_label, bay) for obs in observations[len(done) :]]
+        cpu = sum(c for _, c in new)
+        looks = (*done, *(look for look, _ in new))
         best: tuple[tuple[bool, int, float], Detection] | None = None
         for i, look in enumerate(looks):
             for d in look.detections:
@@ -157,15 +151,12 @@ class UserPerception:
         return Percept(pick_label, target, None, confident, why, looks, cpu)
 
 
-def user_perceiver(
-    sandbox: PerceptionSandbox, recogniser: RecognitionModel | None = None
-) -> PerceiverFactory:
+def user_perceiver(sandbox: PerceptionSandbox) -> PerceiverFactory:
     """What makes the perceiver of ``run --perceive --perception SPEC``: ours, with the user's
-    function (in ``sandbox``) in place of our pipeline (``recogniser``: the kinds it is told,
-    default the shipped model's)."""
+    function (in ``sandbox``) in place of our pipeline, told the cell's pick list and kinds."""
 
     def make(model: mujoco.MjModel, planner: Planner) -> Perceiver:
-        estimator = UserPerception(sandbox, pick_list_of(model))
-        return Perceiver(model, planner, recogniser, estimator=estimator)
+        estimator = UserPerception(sandbox, pick_list_of(model), cell_kinds(model))
+        return Perceiver(model, planner, estimator=estimator)
 
     return make

@@ -45,9 +45,8 @@ def test_training_twice_writes_the_same_file(tmp_path: Path) -> None:
 def test_train_usage_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--samples", "1", "--out", str(tmp_path / "m.json")]) == 2
     assert main(["--out", str(tmp_path / "no" / "m.json")]) == 2
-    assert main(["--cell", "x.toml", "--out", str(tmp_path / "m.json")]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert len(err) == 3 and all(line.startswith("error: ") for line in err)
+    assert len(err) == 2 and all(line.startswith("error: ") for line in err)
 
 
 def test_model_file_round_trip_and_refusals(model: RecognitionModel, tmp_path: Path) -> None:
@@ -70,7 +69,8 @@ def test_model_file_round_trip_and_refusals(model: RecognitionModel, tmp_path: P
 def test_the_shipped_model_loads() -> None:
     m = load_model()
     assert {"target", "red_can"} <= {k.name for k in m.kinds}
-    assert m.samples >= 50 and len(m.y) > 5 * m.samples
+    assert m.samples >= 50 and len(m.y) > 4 * m.samples  # both looks' clusters
+    assert min(m.y.count(k.name) for k in m.kinds) >= 50  # every kind well seen
 
 
 def _scenes(n: int, seed: int) -> list[tuple[list, object, Observation, Observation]]:

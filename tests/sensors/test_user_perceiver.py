@@ -94,7 +94,8 @@ def hostile(tmp_path: Path) -> Path:
 def _perceive(user: Path, name: str, model: RecognitionModel, timeout: float = 5.0):  # type: ignore[no-untyped-def]
     box = open_perception(f"{user}:{name}", timeout, confinement=Jail())
     try:
-        return UserPerception(box, ("target", "red_can"))([_look()], "target", BAY, model), box
+        user = UserPerception(box, ("target", "red_can"), model.kinds)
+        return user([_look()], "target", BAY, model), box
     finally:
         box.close()
 
