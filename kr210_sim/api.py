@@ -374,6 +374,11 @@ def evaluate(
         check_writable(report_path)
     if config.cell is None:
         load_model(config.scene)  # a bad scene fails here, before any worker starts
+    if config.perceive and config.perception is None:  # a cell's own recogniser: trained here,
+        from kr210_sim.cell.load import model_for  # once, and the workers read it from the cache
+        from kr210_sim.sensors.recognisers import recogniser_for
+
+        recogniser_for(model_for(config.scene, config.cell))
     outcome = evaluation.evaluate(config, report=report_path, progress=progress)
     result = EvalReport(outcome.report, outcome.report_path)
     if outcome.signal is not None:
