@@ -19,7 +19,9 @@ records, each replayed by ``run --cycles 1 --seed <seed> --randomize --perceive 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import statistics
 import tempfile
 from pathlib import Path
 
@@ -46,6 +48,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         report = args.report or Path(tmp) / "perception_episodes.json"
         outcome = evaluate(config, report=report)
+        per_look = _cpu_per_look(report.with_name(report.stem + ".episodes.jsonl"))
     s, ex = outcome.report["summary"], outcome.report["wall_execution"]
     p = s["perception"]
     n = s["episodes"]
@@ -72,6 +75,12 @@ def main() -> None:
         )
     cpu = p["cpu_time_ms"]
     print(f"pipeline CPU per episode  mean {cpu['mean']:.0f} ms, max {cpu['max']:.0f} ms")
+    if per_look:
+        print(
+            f"pipeline CPU per look (an episode's over its looks)  mean "
+            f"{statistics.fmean(per_look):.0f} ms, p95 {_p95(per_look):.0f} ms, "
+            f"max {max(per_look):.0f} ms"
+        )
     ct = s["cycle_time"]
     print(
         f"cycle time      mean {ct['mean']:.2f} s, p50 {ct['p50']:.2f} s, p95 {ct['p95']:.2f} s "
@@ -82,6 +91,21 @@ def main() -> None:
         f"wall time       {wall:.0f} s: {wall / n:.2f} s an episode, "
         f"{wall * ex['workers'] / n:.2f} s an episode per worker ({ex['workers']} workers)"
     )
+
+
+def _cpu_per_look(episodes: Path) -> list[float]:
+    """Each perceived episode's pipeline CPU over its looks [ms] (the episodes' file)."""
+    out = []
+    if episodes.is_file():
+        for line in episodes.read_text().splitlines()[1:]:
+            p = json.loads(line).get("perception")
+            if p and p.get("looks"):
+                out.append(p["cpu_time_ms"] / p["looks"])
+    return out
+
+
+def _p95(values: list[float]) -> float:
+    return sorted(values)[min(len(values) - 1, round(0.95 * (len(values) - 1)))]
 
 
 if __name__ == "__main__":
