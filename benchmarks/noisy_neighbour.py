@@ -145,6 +145,8 @@ def sitting(n: int, label: str, wall: float, by: dict[str, dict[str, object]]) -
           f"{'held s':>8}{'cpu s':>8}")  # fmt: skip
     for name in ("neighbour", "other"):
         print(row(name, by[name]))
+        if by[name]["verdict"] != "pass":
+            print(f"  {name}: {by[name]['detail']}")
     out = (by["other"].get("output") or {}).get("bytes", 0)  # type: ignore[union-attr]
     print(f"other's output: {out / 2**20:.0f} MB")
 

@@ -52,6 +52,7 @@ from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.bwrap import JailUnavailable
 from kr210_sim.sandbox.confine import Unconfined
+from kr210_sim.sandbox.held import HELD_SHARE
 from kr210_sim.sandbox.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.sandbox.jail import Jail
 from kr210_sim.sandbox.user_ik import UserIk
@@ -288,7 +289,10 @@ class _BudgetCut(Exception):
 def student_sandbox(job: StudentJob) -> IkSandbox:
     """The sandbox the student's IK runs in (not started): with ``job.jail`` in a jail that
     shows it only its own files (``job.root``); ``job``'s memory limit and time per call, CPU
-    time up to its whole time, its scratch folder, its output captured, the first fault a stop;
+    time up to the most wall time its whole time may take (``job.timeout`` and as much held off
+    the CPU: :data:`~kr210_sim.sandbox.held.HELD_SHARE`; a student charged its CPU time would
+    otherwise meet ``RLIMIT_CPU`` as its budget ran out, ``crashed``), its scratch folder, its
+    output captured, the first fault a stop;
     the import may take the student's whole time (``job.timeout``), which
     :class:`StudentClock` then bounds.
 
@@ -300,7 +304,7 @@ def student_sandbox(job: StudentJob) -> IkSandbox:
         call_timeout=job.ik_timeout,
         memory_mb=job.memory_mb,
         load_timeout=job.timeout,
-        cpu_s=job.timeout,
+        cpu_s=job.timeout * (1 + HELD_SHARE),
     )
     return IkSandbox(
         job.spec,

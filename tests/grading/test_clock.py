@@ -120,3 +120,26 @@ def test_a_student_held_off_the_cpu_for_ever_is_cut_within_twice_its_budget(
         assert "s its processes were held off the CPU by others" in clock.spent_detail()
     finally:
         clock.sandbox.close()
+
+
+def test_its_cpu_time_limit_leaves_room_for_the_time_held(tmp_path: Path) -> None:
+    """RLIMIT_CPU was --timeout: a student charged its CPU time (its waits behind others not
+    counted) reached it as its budget ran out, and was killed, ``crashed`` (measured: the sympy
+    neighbour beside a noisy class, 119 s of CPU in its 120 s)."""
+    (tmp_path / "user.py").write_text(BUSY)
+    job = StudentJob(
+        name="amy",
+        spec=f"{tmp_path / 'user.py'}:solve",
+        problem="",
+        cases=0,
+        cycles=1,
+        seed=3,
+        timeout=120.0,
+        ik_timeout=2.0,
+        memory_mb=1024,
+        min_success=0.8,
+        scratch=str(tmp_path / "scratch"),
+    )
+    box = student_sandbox(job)
+    assert box.limits.cpu_s == (1 + HELD_SHARE) * 120.0
+    box.close()
