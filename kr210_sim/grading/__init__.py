@@ -11,7 +11,8 @@ instructor can take to a course.
 * :mod:`~kr210_sim.grading.diagnose` and :mod:`~kr210_sim.grading.finding` explain a failure in
   the student's terms, :mod:`~kr210_sim.grading.misses` names the failed cases and cycles no
   pattern explains, and :mod:`~kr210_sim.grading.explain` gives ``ik-check`` and ``run --ik``
-  the same diagnoses; :mod:`~kr210_sim.grading.budget` sets the time allowed;
+  the same diagnoses; :mod:`~kr210_sim.grading.clock` times a student's own time and
+  :mod:`~kr210_sim.grading.budget` sets what fits in it;
   :mod:`~kr210_sim.grading.leaderboard` ranks a class;
 * :mod:`~kr210_sim.grading.gradebook` scores each verdict and writes the CSV an LMS gradebook
   imports (``grade --csv``), :mod:`~kr210_sim.grading.gradescope` one submission's Gradescope

@@ -13,8 +13,8 @@ order:
    long as they fit in what is left and in :data:`REST_SHARE` of the budget.
 
 A phase that stops for time counts what it finished: the cases tried, the cycles run (the pass
-bar then applies to those). Nothing here times the student: :class:`~kr210_sim.grading.student.
-StudentClock` does, and this reads it.
+bar then applies to those). Nothing here times the student: :class:`~kr210_sim.grading.clock.
+StudentClock` does (its own time: not the time others held it off the CPU), and this reads it.
 """
 
 from __future__ import annotations

@@ -14,8 +14,10 @@ line of its standard error that tells why: the last line of a traceback). A stud
 can never stop the report: whatever is wrong with it is that student's verdict.
 
 Time: ``timeout`` bounds the student's own time (importing its module, and each call from the
-pose sent to the answer back: :class:`~kr210_sim.grading.student.StudentClock`); our own part of a
-student (start-up, checks, planning, simulation) has a cap of its own,
+pose sent to the answer back, less the time other processes held it off the CPU:
+:class:`~kr210_sim.grading.clock.StudentClock`), which may take at most
+:data:`~kr210_sim.sandbox.held.HELD_SHARE` more of wall time; our own part of a student
+(start-up, checks, planning, simulation) has a cap of its own,
 :attr:`GradeSettings.own_time_cap`. A grading process still running after both is killed, and
 the student is ``timeout`` with a detail that says so.
 
@@ -60,6 +62,7 @@ from kr210_sim.grading.record import (
 )
 from kr210_sim.grading.roster import STUDENT_FUNCTION, STUDENT_MODULE, Student, find_students
 from kr210_sim.grading.student import STUDENT_COMMAND, StudentJob
+from kr210_sim.sandbox.held import HELD_SHARE
 from kr210_sim.sandbox.ik_sandbox import DEFAULT_MEMORY_MB, MIN_MEMORY_MB
 from kr210_sim.sandbox.jail import Jail, unjailed, unjailed_warning
 from kr210_sim.sandbox.user_ik import spec_file
@@ -253,7 +256,8 @@ class _Pool:
         self.plots = plots
         self.running: list[_Running] = []
         self.selector = selectors.DefaultSelector()
-        self.cap = settings.timeout + settings.own_time_cap
+        self.wall_timeout = settings.timeout * (1 + HELD_SHARE)  # its time, and time held
+        self.cap = self.wall_timeout + settings.own_time_cap
 
     def _job(self, index: int, student: Student) -> StudentJob:
         s = self.settings
@@ -374,7 +378,8 @@ class _Pool:
                     printable(run.student.spec),
                     "timeout",
                     f"still grading after {self.cap:g} s (--timeout {self.settings.timeout:g} s "
-                    f"+ our own part's cap {self.settings.own_time_cap:g} s); stopped",
+                    f"and as much held off the CPU by others, + our own part's cap "
+                    f"{self.settings.own_time_cap:g} s); stopped",
                 )
             else:
                 continue

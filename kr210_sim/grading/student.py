@@ -10,8 +10,9 @@ run reaches the pass bar, else ``fail``, with the figures and the mistakes
 :mod:`kr210_sim.grading.diagnose` recognises.
 
 The student's time limit (``timeout``, ``grade --timeout``) counts the student's own time only
-(:class:`StudentClock`): importing its module, and each call from the pose sent to the answer
-back. Our checks, planning and simulation do not count against it. Within it, a slow student is
+(:class:`~kr210_sim.grading.clock.StudentClock`): importing its module, and each call from the
+pose sent to the answer back, less the time other processes held it off the CPU. Our checks,
+planning and simulation do not count against it. Within it, a slow student is
 graded on what fits (:mod:`kr210_sim.grading.budget`): the ``ik_debug`` and ``cell`` cases first,
 then the run cycle by cycle while a cycle fits, then the other cases while they fit; the
 record says how many cases and cycles were tried, and the pass bar applies to the cycles run.
@@ -33,7 +34,6 @@ import re
 import shlex
 import sys
 import time
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -43,6 +43,7 @@ import numpy.typing as npt
 
 from kr210_sim.errors import IkSpecError
 from kr210_sim.grading.budget import Budget, chunks, need_text, split
+from kr210_sim.grading.clock import StudentClock
 from kr210_sim.grading.diagnose import diagnose
 from kr210_sim.grading.finding import exact_singular, grader_code, one_branch
 from kr210_sim.grading.ikcheck import Case, check, fixed_cases, random_cases, summarise
@@ -51,6 +52,7 @@ from kr210_sim.robot.description import load_robot
 from kr210_sim.robot.kinematics import Kinematics
 from kr210_sim.sandbox.bwrap import JailUnavailable
 from kr210_sim.sandbox.confine import Unconfined
+from kr210_sim.sandbox.held import HELD_SHARE
 from kr210_sim.sandbox.ik_sandbox import IkSandbox, Limits, SandboxStop
 from kr210_sim.sandbox.jail import Jail
 from kr210_sim.sandbox.user_ik import UserIk
@@ -128,77 +130,6 @@ class StudentJob:
     def to_dict(self) -> dict[str, Any]:
         """The job as JSON-ready values."""
         return asdict(self)
-
-
-class StudentClock:
-    """The student's IK, timed: the student's own time against its budget.
-
-    Counted: the wall time from starting the student's process to its module imported
-    (:meth:`start`), and for each call (:meth:`__call__`) from the pose sent to the answer
-    back. Nothing else counts: our checks, planning and simulation run between the calls.
-    Before each wait the sandbox's deadline is set to the time left, so the wait that uses the
-    budget up is cut where it runs out (the sandbox then stops the student: ``timeout``).
-
-    Args:
-        sandbox: The student's IK in its sandbox (``stop=True``).
-        budget: The student's time in all [s].
-    """
-
-    def __init__(self, sandbox: IkSandbox, budget: float) -> None:
-        self.sandbox = sandbox
-        self.budget = budget
-        self.import_time = 0.0
-        self.call_time = 0.0
-        self.calls = 0
-
-    @property
-    def used(self) -> float:
-        """The student's time so far [s]."""
-        return self.import_time + self.call_time
-
-    @property
-    def spent(self) -> bool:
-        """Whether the budget is used up (within 1 ms)."""
-        return self.used >= self.budget - 1e-3
-
-    def _arm(self) -> float:
-        self.sandbox.deadline = time.monotonic() + max(0.0, self.budget - self.used)
-        return time.monotonic()
-
-    def start(self) -> None:
-        """Start the student's process and import its module (see ``IkSandbox.start``)."""
-        t = self._arm()
-        try:
-            self.sandbox.start()
-        finally:
-            self.import_time += time.monotonic() - t
-
-    def __call__(self, T: FloatArray, q_ref: FloatArray) -> Any:
-        """``solve(T, q_ref)`` in the student's process (see ``IkSandbox.__call__``)."""
-        self.calls += 1
-        t = self._arm()
-        try:
-            return self.sandbox(T, q_ref)
-        finally:
-            self.call_time += time.monotonic() - t
-
-    def batch(self, poses: Sequence[FloatArray], q_refs: Sequence[FloatArray] = ()) -> list[Any]:
-        """Many poses in one call of the student's process (see ``IkSandbox.batch``)."""
-        self.calls += 1
-        t = self._arm()
-        try:
-            return self.sandbox.batch(poses, q_refs)
-        finally:
-            self.call_time += time.monotonic() - t
-
-    def spent_detail(self) -> str:
-        """What used the budget up, one line."""
-        if self.calls == 0:
-            return f"importing it took longer than --timeout ({self.budget:g} s)"
-        return (
-            f"its code took longer than --timeout ({self.budget:g} s) in all: "
-            f"{self.import_time:.1f} s importing it, {self.call_time:.1f} s in {self.calls} calls"
-        )
 
 
 def shell_word(text: str) -> str:
@@ -358,7 +289,10 @@ class _BudgetCut(Exception):
 def student_sandbox(job: StudentJob) -> IkSandbox:
     """The sandbox the student's IK runs in (not started): with ``job.jail`` in a jail that
     shows it only its own files (``job.root``); ``job``'s memory limit and time per call, CPU
-    time up to its whole time, its scratch folder, its output captured, the first fault a stop;
+    time up to the most wall time its whole time may take (``job.timeout`` and as much held off
+    the CPU: :data:`~kr210_sim.sandbox.held.HELD_SHARE`; a student charged its CPU time would
+    otherwise meet ``RLIMIT_CPU`` as its budget ran out, ``crashed``), its scratch folder, its
+    output captured, the first fault a stop;
     the import may take the student's whole time (``job.timeout``), which
     :class:`StudentClock` then bounds.
 
@@ -370,7 +304,7 @@ def student_sandbox(job: StudentJob) -> IkSandbox:
         call_timeout=job.ik_timeout,
         memory_mb=job.memory_mb,
         load_timeout=job.timeout,
-        cpu_s=job.timeout,
+        cpu_s=job.timeout * (1 + HELD_SHARE),
     )
     return IkSandbox(
         job.spec,
@@ -521,6 +455,7 @@ def grade_student(job: StudentJob) -> dict[str, Any]:
     if stopped_by_jail:
         record["detail"] += f"; the jail stopped: {'; '.join(stopped_by_jail)}"
     record["wall_time_s"]["student"] = clock.used
+    record["wall_time_s"]["held_off_cpu"] = round(clock.held, 3)
     record["wall_time_s"]["total"] = time.monotonic() - wall0
     return record
 

@@ -12,7 +12,8 @@ every answer. A user's perception function runs the same way
 :mod:`~kr210_sim.sandbox.jail` from bubblewrap (:mod:`~kr210_sim.sandbox.bwrap`), a seccomp
 filter (:mod:`~kr210_sim.sandbox.seccomp`), cgroup limits (:mod:`~kr210_sim.sandbox.cgroups`),
 the in-child confinement (:mod:`~kr210_sim.sandbox.confine`) and ``/proc`` reading
-(:mod:`~kr210_sim.sandbox.procfs`); of kr210_sim it shows only the harness
+(:mod:`~kr210_sim.sandbox.procfs`; the time a process was held off the CPU by others:
+:mod:`~kr210_sim.sandbox.held`); of kr210_sim it shows only the harness
 (:mod:`~kr210_sim.sandbox.harness`) and of the user only its own files, one by one
 (:mod:`~kr210_sim.sandbox.jail_files`). :mod:`~kr210_sim.sandbox.captured` keeps the process's
 output bounded.

@@ -308,6 +308,20 @@ class Group:
             return stat.get("nr_throttled", 0), stat["throttled_usec"] / 1e6
         return stat.get("nr_throttled", 0), stat.get("throttled_time", 0) / 1e9
 
+    def usage(self) -> int | None:
+        """CPU time of the group's processes in all, the ended ones too [ns] (v2 ``cpu.stat``'s
+        ``usage_usec``, v1 ``cpuacct.usage`` where ``cpuacct`` is mounted with ``cpu``; None
+        where there is no such figure)."""
+        if self.place.version == 2:
+            stat = self._read(self.folders[0] if self.folders else None, "cpu.stat")
+            return stat["usage_usec"] * 1000 if "usage_usec" in stat else None
+        if self.cpu is None:
+            return None
+        try:
+            return int((self.cpu / "cpuacct.usage").read_text())
+        except (OSError, ValueError):
+            return None
+
     def memory_peak(self) -> int | None:
         """The most memory the group held at once [bytes] (None: no memory group, or a kernel
         with no such file)."""

@@ -18,6 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from kr210_sim.sandbox import held, procfs
+from kr210_sim.sandbox.held import Sched
+
 
 @dataclass(frozen=True, slots=True)
 class Launch:
@@ -67,6 +70,13 @@ class Confinement(Protocol):
     def asked(self, proc: subprocess.Popen[bytes], busy: bool) -> None:
         """Whether an answer of ``proc``'s is awaited now (``busy``): a confinement may let it
         have CPU only then, beside its neighbours."""
+        ...
+
+    def sched(self, proc: subprocess.Popen[bytes], fresh: bool) -> Sched | None:
+        """What the kernel says of the CPU of ``proc`` and the processes it started
+        (:func:`~kr210_sim.sandbox.held.read`), to tell the time others held it off the CPU;
+        ``fresh``: look for its processes again, else those found last may do. None: nothing
+        to read (it has ended)."""
         ...
 
     def describe(self) -> dict[str, Any]:
@@ -140,10 +150,21 @@ class Unconfined:
 
     def end(self, proc: subprocess.Popen[bytes]) -> None:
         """Kill its process group and reap it."""
+        self.__dict__.get("_trees", {}).pop(proc.pid, None)
         kill_group(proc)
 
     def asked(self, proc: subprocess.Popen[bytes], busy: bool) -> None:
         """Nothing: it weighs as any process of the caller's."""
+
+    def sched(self, proc: subprocess.Popen[bytes], fresh: bool) -> Sched | None:
+        """The CPU of ``proc`` and the processes below it (a scan of ``/proc`` when ``fresh``,
+        else those found at the last scan)."""
+        if proc.poll() is not None:
+            return None
+        trees: dict[int, list[int]] = self.__dict__.setdefault("_trees", {})
+        if fresh or proc.pid not in trees:
+            trees[proc.pid] = [proc.pid, *procfs.descendants(proc.pid)]
+        return held.read(trees[proc.pid], states=fresh)
 
     def describe(self) -> dict[str, Any]:
         """``{"confinement": "none"}``."""

@@ -61,6 +61,7 @@ from kr210_sim.errors import ConfigError, IkSpecError
 from kr210_sim.exercise.form import is_ros_form, resolve_spec, seed_scratch
 from kr210_sim.sandbox.captured import KEPT_BYTES, Captured, drain  # noqa: F401 (re-exported)
 from kr210_sim.sandbox.confine import Confinement, Launch, Unconfined
+from kr210_sim.sandbox.held import HELD_SHARE, Meter, Sched
 from kr210_sim.sandbox.ik_wire import Oversized, answer_of, oversized, receive, refusal, send, short
 from kr210_sim.sandbox.user_ik import UserIk, spec_file, spec_files
 
@@ -180,7 +181,10 @@ class IkSandbox:
         stop: Raise :class:`SandboxStop` at the first fault instead of an exception per call
             (and a fresh process for the next call).
         deadline: ``time.monotonic()`` after which any wait counts as a timeout (the whole
-            student's limit), or None.
+            student's limit), or None. A wait for the process's answer is moved on by the time
+            others held it off the CPU (:mod:`~kr210_sim.sandbox.held`): by at most
+            :data:`~kr210_sim.sandbox.held.HELD_SHARE` of its time limit per call, and in all by
+            at most :attr:`held_room` against the deadline.
         confinement: What starts and ends the process (:class:`~kr210_sim.sandbox.confine.
             Unconfined` when None).
         root: The user's own files the process reads (a student's submission: a file or a
@@ -215,6 +219,11 @@ class IkSandbox:
         self.capture = capture
         self.stop = stop
         self.deadline = deadline
+        #: How long the waits may still be moved on past :attr:`deadline` for the time the
+        #: process was held off the CPU [s] (its owner's: a graded student's clock sets it).
+        self.held_room = 0.0
+        #: Time the last wait (the import, or a call) was held off the CPU by others [s].
+        self.held = 0.0
         self.stdout = Captured()
         self.stderr = Captured()
         self.starts = 0
@@ -309,6 +318,8 @@ class IkSandbox:
         self.close_process()
         if self.ros:  # as under rosrun, the files beside the script are in its working folder
             seed_scratch(Path(self.spec.rpartition(":")[0]), self.scratch, self._root)
+        limit = self.limits.load_timeout
+        meter = self._meter(limit, new=True)
         req_r, req_w = os.pipe()
         ans_r, ans_w = os.pipe()
         try:
@@ -332,11 +343,13 @@ class IkSandbox:
                 t = threading.Thread(target=drain, args=(stream, sink), daemon=True)
                 t.start()
                 self._threads.append(t)
-        limit = self.limits.load_timeout
         try:
-            got = receive(ans_r, self._until(limit))
+            got = receive(ans_r, meter.ready(ans_r, self._until(limit, meter.start)))
         except TimeoutError:
-            self._fault("timeout", f"importing it took longer than {_seconds(self._limit(limit))}")
+            took = _seconds(self._limit(limit, meter.start))
+            self._fault("timeout", f"importing it took longer than {took}")
+        finally:
+            self.held = meter.look()
         message = got if isinstance(got, dict) else None
         if message is not None:
             self._keep_blocked(message)
@@ -361,16 +374,29 @@ class IkSandbox:
             return f"{Path(where).resolve()}:{name}"
         return self.spec
 
-    def _limit(self, limit: float | None) -> float:
-        """The wait for ``limit`` [s] cut to what is left before the deadline."""
+    def _limit(self, limit: float | None, since: float | None = None) -> float:
+        """The wait for ``limit`` [s] cut to what is left before the deadline (at ``since``,
+        ``time.monotonic()``; None: now)."""
         if self.deadline is None:
             return math.inf if limit is None else limit
-        left = max(0.0, self.deadline - time.monotonic())
+        left = max(0.0, self.deadline - (time.monotonic() if since is None else since))
         return left if limit is None else min(limit, left)
 
-    def _until(self, limit: float | None) -> float | None:
-        wait = self._limit(limit)
-        return None if math.isinf(wait) else time.monotonic() + wait
+    def _until(self, limit: float | None, since: float | None = None) -> float | None:
+        now = time.monotonic() if since is None else since
+        wait = self._limit(limit, now)
+        return None if math.isinf(wait) else now + wait
+
+    def _meter(self, limit: float | None, new: bool = False) -> Meter:
+        """The time held off the CPU during a wait of ``limit`` [s] (see ``deadline``)."""
+        caps = [HELD_SHARE * limit] if limit is not None else []
+        caps += [self.held_room] if self.deadline is not None else []
+        return Meter(self._sched, min(caps, default=0.0), new)
+
+    def _sched(self, fresh: bool) -> Sched | None:
+        sched = getattr(self.confinement, "sched", None)
+        proc = self._proc
+        return None if sched is None or proc is None else sched(proc, fresh)
 
     def _fault(self, verdict: str, detail: str) -> NoReturn:
         """Kill the process and raise the fault (``stop``: SandboxStop)."""
@@ -415,11 +441,13 @@ class IkSandbox:
         if self._proc is None or self._proc.poll() is not None:
             self.start()
         self.calls += 1
-        until = self._until(limit)  # the request's writing counts: a process may stop reading
+        meter = self._meter(limit)
+        until = self._until(limit, meter.start)  # its writing counts: it may stop reading
         self._asked(True)
         try:
-            return self._exchange(message, until, limit)
+            return self._exchange(message, until, limit, meter)
         finally:
+            self.held = meter.look()
             self._asked(False)
 
     def _asked(self, busy: bool) -> None:
@@ -429,7 +457,7 @@ class IkSandbox:
             asked(self._proc, busy)
 
     def _exchange(
-        self, message: dict[str, Any], until: float | None, limit: float | None
+        self, message: dict[str, Any], until: float | None, limit: float | None, meter: Meter
     ) -> dict[str, Any] | Oversized:
         """Send the request and read its answer (see :meth:`_request`)."""
         req_w, ans_r = self._fds
@@ -443,9 +471,11 @@ class IkSandbox:
             self._died("before a call", None)
         while True:
             try:
+                until = meter.ready(ans_r, until)
                 got = receive(ans_r, until)
             except TimeoutError:
-                self._fault("timeout", f"no answer within {_seconds(self._limit(limit))}")
+                took = _seconds(self._limit(limit, meter.start))
+                self._fault("timeout", f"no answer within {took}")
             if isinstance(got, Oversized):
                 return got
             if got is None or "exit" in got or got.get("memory"):

@@ -58,14 +58,15 @@ import signal
 import site
 import subprocess
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from kr210_sim.sandbox import harness, procfs, seccomp
+from kr210_sim.sandbox import harness, held, procfs, seccomp
 from kr210_sim.sandbox.bwrap import NAMESPACES, Bwrap, find_bwrap
 from kr210_sim.sandbox.cgroups import Group, Limiter
 from kr210_sim.sandbox.confine import Launch
+from kr210_sim.sandbox.held import Sched
 from kr210_sim.sandbox.jail_files import covered, package_roots, python_roots, user_files, user_site
 from kr210_sim.util import paths
 
@@ -171,6 +172,7 @@ class _Started:
     group: Group | None
     init: int | None  # the PID namespace's init (bubblewrap's), as this process sees it
     pidfd: int | None
+    pids: list[int] = field(default_factory=list)  # its processes at the last look (no group)
 
 
 class Jail:
@@ -452,6 +454,20 @@ class Jail:
         started = self._started.get(proc.pid)
         if started is not None and started.group is not None:
             started.group.weigh(busy)
+
+    def sched(self, proc: subprocess.Popen[bytes], fresh: bool) -> Sched | None:
+        """The CPU of the jail's processes: those of its control group, with the group's CPU
+        time and throttling where it has them; else the processes below ``proc`` (a scan of
+        ``/proc`` when ``fresh``, else those found at the last scan)."""
+        started = self._started.get(proc.pid)
+        if started is None:
+            return None
+        group = started.group
+        if group is not None:
+            return held.read(group.pids(), group.usage(), group.throttled()[1], fresh)
+        if fresh or not started.pids:
+            started.pids = [proc.pid, *procfs.descendants(proc.pid)]
+        return held.read(started.pids, states=fresh)
 
     def end(self, proc: subprocess.Popen[bytes]) -> None:
         """Count what is still running, kill the jail whole and wait for it, read and remove

@@ -81,3 +81,52 @@ def inner_pid(pid: int) -> int | None:
     except (OSError, ValueError, IndexError):
         pass
     return None
+
+
+def task_times(pids: list[int]) -> dict[int, tuple[int, int]]:
+    """Each live task (thread) of processes ``pids``: its CPU time and the time it spent
+    runnable but waiting for a CPU (the run-queue wait), both since it started [ns], by thread
+    id (``/proc/PID/task/TID/schedstat``'s first two fields; the kernel's, with
+    ``CONFIG_SCHED_INFO``, which every distribution's kernel has). A task that ended is left
+    out; a kernel that keeps no such figures gives zeros."""
+    out: dict[int, tuple[int, int]] = {}
+    for pid in pids:
+        try:
+            tids = os.listdir(f"/proc/{pid}/task")
+        except OSError:
+            continue
+        for tid in tids:
+            with contextlib.suppress(OSError, ValueError, IndexError):
+                fields = Path(f"/proc/{pid}/task/{tid}/schedstat").read_text().split()
+                out[int(tid)] = (int(fields[0]), int(fields[1]))
+    return out
+
+
+def process_ticks(pids: list[int]) -> dict[int, int]:
+    """CPU time of each of processes ``pids`` [clock ticks]: its threads, the ended ones too, and
+    the children it has reaped (``/proc/PID/stat``: utime, stime, cutime, cstime)."""
+    out = {}
+    for pid in pids:
+        with contextlib.suppress(OSError, ValueError, IndexError):
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            out[pid] = sum(int(v) for v in fields[11:15])
+    return out
+
+
+def runnable(pids: list[int]) -> frozenset[int]:
+    """The live tasks (thread ids) of processes ``pids`` that are running or ready to run (state
+    ``R`` in ``/proc/PID/task/TID/stat``)."""
+    out = set()
+    for pid in pids:
+        try:
+            tids = os.listdir(f"/proc/{pid}/task")
+        except OSError:
+            continue
+        for tid in tids:
+            with contextlib.suppress(OSError, ValueError, IndexError):
+                state = (
+                    Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+                )
+                if state == "R":
+                    out.add(int(tid))
+    return frozenset(out)

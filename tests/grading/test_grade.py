@@ -138,6 +138,7 @@ def test_a_class_of_bad_submissions_is_graded_in_one_call(tmp_path: Path) -> Non
     assert ok["ik_check"]["passed"] == ok["ik_check"]["cases"] == 88  # 68 fixed + 20 random
     times = ok["wall_time_s"]
     assert 0 < times["student"] < times["total"]  # its own time: import and calls
+    assert 0 <= times["held_off_cpu"] <= times["total"]  # not counted: held off the CPU
     assert ok["ik_check"]["max_position_error_m"] < 1e-9
     assert ok["run"]["successes"] == 2
     wrong = by_name["no_offset"]
