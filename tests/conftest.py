@@ -5,7 +5,8 @@ test module imports mujoco.
 """
 
 import os
-from collections.abc import Callable
+import signal
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +74,34 @@ def _jail_setting_kept(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("KR210_JAIL", value or "1")  # what it was comes back after the test
     if value is None:
         monkeypatch.delenv("KR210_JAIL")
+
+
+#: The signals whose handling a test must leave as it found it.
+KEPT_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@pytest.fixture(autouse=True)
+def _signals_kept() -> Iterator[None]:
+    """A test that leaves SIGINT, SIGTERM or SIGHUP ignored, handled otherwise or blocked fails,
+    and the handling is put back: a process started by a later test in the same worker would
+    inherit an ignored signal (and keep it ignored, as a command started under ``nohup`` does),
+    so its Ctrl-C would do nothing, far from the test that caused it."""
+    handlers = {sig: signal.getsignal(sig) for sig in KEPT_SIGNALS}
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    yield
+    changed = [
+        f"{signal.Signals(sig).name} {handlers[sig]!r} -> {signal.getsignal(sig)!r}"
+        for sig in KEPT_SIGNALS
+        if signal.getsignal(sig) != handlers[sig]
+    ]
+    now = signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    if now != blocked:
+        changed.append(f"blocked {sorted(blocked)} -> {sorted(now)}")
+    for sig, handler in handlers.items():
+        if handler is not None:
+            signal.signal(sig, handler)
+    if changed:
+        pytest.fail("the test left the signals' handling changed: " + "; ".join(changed))
 
 
 @pytest.fixture(scope="session")

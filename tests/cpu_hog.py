@@ -1,6 +1,12 @@
 """A CPU hog beside a user's process, for the tests of the time it was held off the CPU
 (tests/sandbox/test_held.py, tests/grading/test_clock.py): both on one CPU, the hog outside the
-user's process tree, so the user's process waits on that CPU's run queue while the hog runs."""
+user's process tree, so the user's process waits on that CPU's run queue while the hog runs.
+
+The tests run beside others (``pytest -n``) on a machine that may be shared: whatever else the
+kernel puts on the pinned CPU holds the user's process off it too, truly. :class:`Others` measures
+how much CPU time that was, from the kernel's per-CPU figures, so a test can bound the time held
+by it rather than assume the CPU was free.
+"""
 
 from __future__ import annotations
 
@@ -9,8 +15,12 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TypeVar
+
+from kr210_sim.sandbox.procfs import descendants
 
 T = TypeVar("T")
 
@@ -105,3 +115,50 @@ def hog(nice: int = 0) -> Iterator[subprocess.Popen[bytes]]:
     finally:
         proc.kill()
         proc.wait()
+
+
+def _cpu_busy(cpu: int) -> float:
+    """CPU time ``cpu`` spent on anything but idling since boot [s] (``/proc/stat``)."""
+    for line in Path("/proc/stat").read_text().splitlines():
+        name, *ticks = line.split()
+        if name == f"cpu{cpu}":
+            t = [int(x) for x in ticks]
+            return (sum(t[:8]) - t[3] - t[4]) / os.sysconf("SC_CLK_TCK")  # less idle, iowait
+    raise LookupError(f"cpu{cpu} not in /proc/stat")
+
+
+def _tree_cpu(root: int) -> float:
+    """CPU time of process ``root`` and its live descendants, with the children each reaped [s]
+    (``/proc/PID/stat``'s utime, stime, cutime, cstime)."""
+    total = 0
+    for pid in [root, *descendants(root)]:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        total += sum(int(x) for x in fields[11:15])
+    return total / os.sysconf("SC_CLK_TCK")
+
+
+class Others:
+    """CPU time that processes other than a tree took on :func:`one_cpu` over a block [s]: the
+    CPU's busy time less the tree's CPU time (the tree pinned there), read when the block ends.
+
+    Args:
+        root: The tree's first process.
+    """
+
+    def __init__(self, root: int) -> None:
+        self.root = root
+        self.took = 0.0
+        self.wall = 0.0
+
+    def __enter__(self) -> Others:
+        self._start = (_cpu_busy(one_cpu()), _tree_cpu(self.root), time.monotonic())
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        busy, tree, t = self._start
+        self.wall = time.monotonic() - t
+        grown = (_cpu_busy(one_cpu()) - busy) - (_tree_cpu(self.root) - tree)
+        self.took = max(0.0, grown)
