@@ -59,6 +59,7 @@ import numpy.typing as npt
 
 from kr210_sim.errors import ConfigError, IkSpecError
 from kr210_sim.exercise.form import is_ros_form, resolve_spec, seed_scratch
+from kr210_sim.sandbox import ik_wire
 from kr210_sim.sandbox.captured import KEPT_BYTES, Captured, drain  # noqa: F401 (re-exported)
 from kr210_sim.sandbox.confine import Confinement, Launch, Unconfined
 from kr210_sim.sandbox.held import HELD_SHARE, Meter, Sched
@@ -350,6 +351,8 @@ class IkSandbox:
             self._fault("timeout", f"importing it took longer than {took}")
         finally:
             self.held = meter.look()
+        if isinstance(got, ik_wire.Malformed):
+            self._forged(got, "while importing it")
         message = got if isinstance(got, dict) else None
         if message is not None:
             self._keep_blocked(message)
@@ -410,6 +413,14 @@ class IkSandbox:
         if verdict == "timeout":
             raise IkTimeout(detail)
         raise IkCrashed(detail)
+
+    def _forged(self, got: ik_wire.Malformed, when: str) -> NoReturn:
+        """The user's code wrote to the answer pipe itself, ``when``: a fault, said so."""
+        self._fault(
+            "crashed",
+            f"wrote {got.size:,} bytes to the grader's answer pipe itself {when}, not a message "
+            f"of the harness's ({got.why})",
+        )
 
     def _died(self, when: str, message: dict[str, Any] | None) -> NoReturn:
         proc = self._proc
@@ -478,6 +489,8 @@ class IkSandbox:
                 self._fault("timeout", f"no answer within {took}")
             if isinstance(got, Oversized):
                 return got
+            if isinstance(got, ik_wire.Malformed):
+                self._forged(got, "during a call")
             if got is None or "exit" in got or got.get("memory"):
                 self._died("during a call", got)
             if got.get("n") == self.calls:

@@ -5,9 +5,10 @@ speak it (:mod:`kr210_sim.sandbox.ik_sandbox` and :mod:`kr210_sim.sandbox.ik_chi
 side is on guard both ways. The user's process may stop reading its requests, so :func:`send` takes
 a deadline; it may write anything to its end of the pipe, so :func:`receive` bounds a frame's size
 (:data:`MAX_FRAME`) and the time it may take, and tells a frame that is too big (:class:`Oversized`)
-from one that is not JSON (None). :func:`answer_of` reads an answer's message back into the answer
-(numbers, None, the exception the user's code raised, or an unusable answer that says what it was:
-:func:`refusal`).
+and one that is not a JSON object (:class:`Malformed`: not JSON, nested past the decoder's depth,
+an integer past Python's digits) from the end of the pipe (None). :func:`answer_of` reads an
+answer's message back into the answer (numbers, None, the exception the user's code raised, or an
+unusable answer that says what it was: :func:`refusal`).
 """
 
 from __future__ import annotations
@@ -41,6 +42,19 @@ class Oversized:
     """
 
     size: int
+
+
+@dataclass(frozen=True, slots=True)
+class Malformed:
+    """A frame that is not one JSON object: the user's code wrote to the pipe itself.
+
+    Attributes:
+        size: Its length [bytes].
+        why: What the decoder said of it, one line.
+    """
+
+    size: int
+    why: str
 
 
 def send(fd: int, message: dict[str, Any], deadline: float | None = None) -> None:
@@ -103,13 +117,13 @@ def _discard(fd: int, n: int, deadline: float | None) -> bool:
     return True
 
 
-def receive(fd: int, deadline: float | None) -> dict[str, Any] | Oversized | None:
+def receive(fd: int, deadline: float | None) -> dict[str, Any] | Oversized | Malformed | None:
     """One message from ``fd``.
 
     Returns:
         The message; :class:`Oversized` for a frame over :data:`MAX_FRAME` (its bytes read and
-        dropped, so the next frame can be read); None at end of file or for a frame that is not
-        a JSON object.
+        dropped, so the next frame can be read); :class:`Malformed` for a frame that is not a
+        JSON object; None at end of file.
 
     Raises:
         TimeoutError: The frame did not arrive whole before ``deadline``.
@@ -121,11 +135,15 @@ def receive(fd: int, deadline: float | None) -> dict[str, Any] | Oversized | Non
     if size > MAX_FRAME:
         return Oversized(size) if _discard(fd, size, deadline) else None
     body = read_exact(fd, size, deadline)
-    try:
-        message = json.loads(body) if body is not None else None
-    except ValueError:
+    if body is None:
         return None
-    return message if isinstance(message, dict) else None
+    try:
+        message = json.loads(body)
+    except (ValueError, RecursionError) as exc:  # RecursionError: nested past the decoder
+        return Malformed(size, short(str(exc), 200))
+    if not isinstance(message, dict):
+        return Malformed(size, f"a JSON {type(message).__name__}, not an object")
+    return message
 
 
 def short(text: str, limit: int = MAX_TEXT) -> str:
@@ -159,7 +177,8 @@ def oversized(size: int) -> Any:
 def answer_of(message: dict[str, Any]) -> Any:
     """The user's answer from its message (see :func:`kr210_sim.sandbox.ik_child.reply`)."""
     if "raised" in message:
-        kind = type(str(message["raised"]), (Exception,), {})
+        name = short(str(message["raised"]), 200).replace("\x00", "\\x00")
+        kind = type(name or "Exception", (Exception,), {})  # a type's name holds no NUL
         raise kind(str(message.get("message", "")))
     if message.get("none"):
         return None

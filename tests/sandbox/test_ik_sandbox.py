@@ -477,3 +477,28 @@ def test_a_confinement_starts_and_ends_the_process(tmp_path: Path) -> None:
     root = tmp_path / "only_this.py"
     root.write_text("")
     assert IkSandbox(spec, root=root).readable == (root.resolve(),)
+
+
+#: A user's ``solve`` that writes a frame of its own to the grader's answer pipe before its
+#: answer (it finds the pipe's descriptor in the harness's frames).
+FORGER = """
+import os, struct, sys
+
+def solve(T, q):
+    f = sys._getframe()
+    while not isinstance(f.f_locals.get("ans"), int):
+        f = f.f_back
+    body = b"[" * 100000
+    os.write(f.f_locals["ans"], struct.pack("!I", len(body)) + body)
+    return list(q)
+"""
+
+
+def test_a_frame_the_users_code_writes_itself_is_a_fault_that_says_so(tmp_path: Path) -> None:
+    """A frame nested past the JSON decoder's depth raised RecursionError out of the grader's
+    side; any frame that is not the harness's is now the user's fault, named."""
+    (tmp_path / "forger.py").write_text(FORGER)
+    q = np.array([0.3, 0.2, -0.3, 0.5, 0.6, -0.4])
+    with IkSandbox(f"{tmp_path / 'forger.py'}:solve", Limits(call_timeout=5.0)) as box:
+        with pytest.raises(IkCrashed, match=r"^wrote 100,000 bytes to the grader's answer pipe"):
+            box(kinematics.forward(q), q)

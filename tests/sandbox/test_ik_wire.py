@@ -10,7 +10,16 @@ import time
 
 import pytest
 
-from kr210_sim.sandbox.ik_wire import MAX_FRAME, MAX_TEXT, Oversized, receive, send, short
+from kr210_sim.sandbox.ik_wire import (
+    MAX_FRAME,
+    MAX_TEXT,
+    Malformed,
+    Oversized,
+    answer_of,
+    receive,
+    send,
+    short,
+)
 
 
 def _pipe_with(data: bytes) -> int:
@@ -50,11 +59,34 @@ def test_an_oversized_frame_is_dropped_and_the_next_one_read() -> None:
     os.close(r)
 
 
-@pytest.mark.parametrize("body", [b"not json", b"[1, 2]", b'"a string"', b"\xff\xfe"])
-def test_a_frame_that_is_not_a_json_object_is_none(body: bytes) -> None:
-    r = _pipe_with(_frame(body))
-    assert receive(r, time.monotonic() + 5) is None
+@pytest.mark.parametrize(
+    ("body", "why"),
+    [
+        (b"not json", "Expecting value"),
+        (b"[1, 2]", "a JSON list, not an object"),
+        (b'"a string"', "a JSON str, not an object"),
+        (b"\xff\xfe", "Expecting value"),
+        (b"[" * 200_000, "maximum recursion depth"),  # a RecursionError, not a ValueError
+        (b'{"q": [' + b"1" * 5000 + b"]}", "4300 digits"),
+    ],
+    ids=["text", "list", "string", "bytes", "nested", "digits"],
+)
+def test_a_frame_that_is_not_a_json_object_is_malformed(body: bytes, why: str) -> None:
+    """The user's code may write anything to the pipe: whatever it is, it is named, and the
+    grader's side raises nothing (a deep nest raised RecursionError out of it)."""
+    r = _pipe_with(_frame(body) + _frame(b'{"n": 3}'))
+    got = receive(r, time.monotonic() + 5)
+    assert isinstance(got, Malformed) and got.size == len(body) and why in got.why
+    assert receive(r, time.monotonic() + 5) == {"n": 3}
     os.close(r)
+
+
+def test_an_exception_named_with_a_nul_is_raised_as_the_users() -> None:
+    """A type's name may hold no NUL: the name the user's process sent was a ValueError of the
+    grader's own."""
+    with pytest.raises(Exception, match=r"^boom$") as caught:
+        answer_of({"raised": "Bad\x00Name", "message": "boom"})
+    assert type(caught.value).__name__ == "Bad\\x00Name"
 
 
 def test_a_frame_cut_short_is_none_and_a_slow_one_times_out() -> None:
