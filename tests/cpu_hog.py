@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TypeVar
 
-from kr210_sim.sandbox.procfs import descendants
+from kr210_sim.sandbox.procfs import descendants, process_ticks
 
 T = TypeVar("T")
 
@@ -129,15 +129,9 @@ def _cpu_busy(cpu: int) -> float:
 
 def _tree_cpu(root: int) -> float:
     """CPU time of process ``root`` and its live descendants, with the children each reaped [s]
-    (``/proc/PID/stat``'s utime, stime, cutime, cstime)."""
-    total = 0
-    for pid in [root, *descendants(root)]:
-        try:
-            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        total += sum(int(x) for x in fields[11:15])
-    return total / os.sysconf("SC_CLK_TCK")
+    (:func:`~kr210_sim.sandbox.procfs.process_ticks`)."""
+    ticks = process_ticks([root, *descendants(root)])
+    return sum(ticks.values()) / os.sysconf("SC_CLK_TCK")
 
 
 class Others:
